@@ -1,0 +1,34 @@
+//! # rod — shared rod mathematics for yarn-level cloth
+//!
+//! Geometry and per-stencil energies of yarn segments, shared by the three methods of the
+//! workbench. Every energy term implements [`Stencil`]: energy, gradient and Hessian on a
+//! fixed-size DOF vector, and has an asserting finite-difference test through [`fd`].
+//! No I/O, no solvers, no allocation in the stencil evaluations.
+//!
+//! | module | contents | source |
+//! |---|---|---|
+//! | [`geometry`] | edges, tangents, turning angle, curvature binormal, parallel transport, frames, reference twist | Bergou et al. 2008/2010 |
+//! | [`stretch`] | linear and two-phase stretch laws; fixed-length and sliding-coordinate segments | seed 002 Eq. 5; seed 000 §3.2 |
+//! | [`bending`] | angle bending with jamming; curvature-binormal bending | seed 000 Eq. 1, §4.1; seed 002 Eq. 6 (κ̄ = 0) |
+//! | [`material_bending`] | bending with rest curvature in the material frame, with twist DOFs | seed 002 Eq. 6; Bergou 2010 |
+//! | [`contact`] | segment closest points; two-phase barrier contact with Simpson quadrature | seed 002 Eq. 7 |
+//! | [`hyperdual`] | exact second derivatives by forward differentiation (used where closed forms are impractical) | Fike & Alonso 2011 |
+//! | [`spd`] | projection of small symmetric Hessians onto the PSD cone | — |
+//! | [`validation`] | circle and helix references with closed-form bending energy | — |
+//! | [`fd`] | the finite-difference derivative-check harness used by every crate | — |
+//!
+//! Units: SI throughout (m, N, J, rad). Sign conventions: gradients are `∂W/∂q` (forces are
+//! their negatives).
+
+pub mod bending;
+pub mod contact;
+pub mod fd;
+pub mod geometry;
+pub mod hyperdual;
+pub mod material_bending;
+pub mod spd;
+pub mod stencil;
+pub mod stretch;
+pub mod validation;
+
+pub use stencil::{Evaluation, Stencil};

@@ -1,0 +1,194 @@
+//! Projection of small symmetric matrices onto the positive semi-definite cone.
+//!
+//! Newton solvers need a descent direction; the exact Hessian of a non-convex stencil (bending
+//! past a fold, a contact barrier) can be indefinite. Projecting each stencil's Hessian
+//! (Teran et al. 2005's per-element projection) keeps the assembled matrix SPD (up to the
+//! solver's regularization) while leaving convex stencils untouched.
+
+use nalgebra::SMatrix;
+
+/// Largest dense size the slice projection handles (stack scratch, no allocation).
+pub const MAX_PROJECT_DIM: usize = 32;
+
+/// Projects the symmetric `n × n` matrix stored column-major in `h` onto the PSD cone in place:
+/// `H ← V max(Λ, 0) Vᵀ` with `H = V Λ Vᵀ` its eigendecomposition (cyclic Jacobi, accurate to
+/// a few ulps for the sizes used here). The input is symmetrized first (`(H + Hᵀ)/2`).
+///
+/// # Panics
+/// If `n > MAX_PROJECT_DIM` or `h.len() != n²` (programming errors, not input errors).
+pub fn project_spd(h: &mut [f64], n: usize) {
+    assert!(
+        n <= MAX_PROJECT_DIM,
+        "project_spd: n = {n} > {MAX_PROJECT_DIM}"
+    );
+    assert_eq!(h.len(), n * n, "project_spd: buffer is not n×n");
+    let mut a = [0.0; MAX_PROJECT_DIM * MAX_PROJECT_DIM];
+    let mut v = [0.0; MAX_PROJECT_DIM * MAX_PROJECT_DIM];
+    for j in 0..n {
+        for i in 0..n {
+            a[i + n * j] = 0.5 * (h[i + n * j] + h[j + n * i]);
+            v[i + n * j] = if i == j { 1.0 } else { 0.0 };
+        }
+    }
+    jacobi_eigen(&mut a[..n * n], &mut v[..n * n], n);
+    if (0..n).all(|i| a[i + n * i] >= 0.0) {
+        // Already PSD: keep the (symmetrized) input bit-for-bit rather than the reconstruction.
+        for j in 0..n {
+            for i in 0..n {
+                let s = 0.5 * (h[i + n * j] + h[j + n * i]);
+                h[i + n * j] = s;
+            }
+        }
+        return;
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let mut s = 0.0;
+            for k in 0..n {
+                let lambda = a[k + n * k];
+                if lambda > 0.0 {
+                    s += v[i + n * k] * lambda * v[j + n * k];
+                }
+            }
+            h[i + n * j] = s;
+        }
+    }
+}
+
+/// Fixed-size convenience wrapper of [`project_spd`].
+pub fn project_spd_matrix<const N: usize>(h: &mut SMatrix<f64, N, N>) {
+    project_spd(h.as_mut_slice(), N);
+}
+
+/// Eigenvalues of a symmetric `n × n` column-major matrix, ascending (used by tests and
+/// diagnostics).
+pub fn symmetric_eigenvalues(h: &[f64], n: usize) -> Vec<f64> {
+    let mut a = h.to_vec();
+    let mut v = vec![0.0; n * n];
+    for i in 0..n {
+        v[i + n * i] = 1.0;
+    }
+    jacobi_eigen(&mut a, &mut v, n);
+    let mut e: Vec<f64> = (0..n).map(|i| a[i + n * i]).collect();
+    e.sort_by(f64::total_cmp);
+    e
+}
+
+/// Cyclic Jacobi: on return `a` is diagonal (eigenvalues) and the columns of `v` are the
+/// eigenvectors. Sweeps until the off-diagonal mass is below `ε²·‖A‖²` (at most 64 sweeps,
+/// far more than the ~6–10 a 12 × 12 matrix needs).
+fn jacobi_eigen(a: &mut [f64], v: &mut [f64], n: usize) {
+    let frob2: f64 = a.iter().map(|x| x * x).sum();
+    if frob2 == 0.0 {
+        return;
+    }
+    for _sweep in 0..64 {
+        let mut off = 0.0;
+        for j in 0..n {
+            for i in 0..j {
+                off += a[i + n * j] * a[i + n * j];
+            }
+        }
+        if off <= f64::EPSILON * f64::EPSILON * frob2 {
+            return;
+        }
+        for p in 0..n {
+            for q in (p + 1)..n {
+                let apq = a[p + n * q];
+                if apq == 0.0 {
+                    continue;
+                }
+                let app = a[p + n * p];
+                let aqq = a[q + n * q];
+                // Rotation angle that annihilates a_pq (Golub & Van Loan, Alg. 8.4.2).
+                let tau = (aqq - app) / (2.0 * apq);
+                let t = tau.signum() / (tau.abs() + (1.0 + tau * tau).sqrt());
+                let t = if tau == 0.0 { 1.0 } else { t };
+                let c = 1.0 / (1.0 + t * t).sqrt();
+                let s = t * c;
+                for k in 0..n {
+                    let akp = a[k + n * p];
+                    let akq = a[k + n * q];
+                    a[k + n * p] = c * akp - s * akq;
+                    a[k + n * q] = s * akp + c * akq;
+                }
+                for k in 0..n {
+                    let apk = a[p + n * k];
+                    let aqk = a[q + n * k];
+                    a[p + n * k] = c * apk - s * aqk;
+                    a[q + n * k] = s * apk + c * aqk;
+                }
+                for k in 0..n {
+                    let vkp = v[k + n * p];
+                    let vkq = v[k + n * q];
+                    v[k + n * p] = c * vkp - s * vkq;
+                    v[k + n * q] = s * vkp + c * vkq;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn psd_input_is_unchanged() {
+        let mut h = [4.0, 1.0, 0.0, 1.0, 3.0, 0.5, 0.0, 0.5, 2.0];
+        let before = h;
+        project_spd(&mut h, 3);
+        assert_eq!(h, before);
+    }
+
+    #[test]
+    fn indefinite_input_gets_clamped_eigenvalues() {
+        // diag(2, -3) rotated by 30°.
+        let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+        let r = nalgebra::Matrix2::new(c, -s, s, c);
+        let d = nalgebra::Matrix2::new(2.0, 0.0, 0.0, -3.0);
+        let mut h = r * d * r.transpose();
+        project_spd_matrix(&mut h);
+        let expected = r * nalgebra::Matrix2::new(2.0, 0.0, 0.0, 0.0) * r.transpose();
+        assert!((h - expected).norm() < 1e-14, "{h} vs {expected}");
+        let e = symmetric_eigenvalues(h.as_slice(), 2);
+        assert!(e[0].abs() < 1e-14 && (e[1] - 2.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn random_12x12_projection_is_psd_and_idempotent() {
+        let n = 12;
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let mut h = vec![0.0; n * n];
+        for j in 0..n {
+            for i in 0..=j {
+                let x = rnd();
+                h[i + n * j] = x;
+                h[j + n * i] = x;
+            }
+        }
+        let before = symmetric_eigenvalues(&h, n);
+        assert!(before[0] < 0.0, "test matrix should be indefinite");
+        project_spd(&mut h, n);
+        let after = symmetric_eigenvalues(&h, n);
+        assert!(after[0] > -1e-14, "min eigenvalue {}", after[0]);
+        // Positive eigenvalues survive.
+        let pos_before: Vec<f64> = before.iter().copied().filter(|&x| x > 0.0).collect();
+        let pos_after: Vec<f64> = after.iter().copied().filter(|&x| x > 1e-12).collect();
+        assert_eq!(pos_before.len(), pos_after.len());
+        for (a, b) in pos_before.iter().zip(&pos_after) {
+            assert!((a - b).abs() < 1e-13);
+        }
+        let once = h.clone();
+        project_spd(&mut h, n);
+        for (a, b) in once.iter().zip(&h) {
+            assert!((a - b).abs() < 1e-14);
+        }
+    }
+}

@@ -1,0 +1,14 @@
+//! # sim-periodic — periodic yarn tiles under a prescribed coarse deformation
+//!
+//! The solver shared by two papers:
+//!
+//! - Sperl et al. 2022, *Estimation of Yarn-Level Simulation Models for Production Fabrics*
+//!   (seed 002), §6 (yarn model: two-phase stretch Eq. 5, bending Eq. 6, two-phase barrier
+//!   contact Eq. 7) and §7.1 (periodic simulation, homogenized stress Eq. 10);
+//! - Sperl, Narain and Wojtan 2021, *Mechanics-Aware Deformation of Yarn Pattern Geometry*
+//!   (seed 004), §3 (displacement database ΔQ(sx, sa, sy), no-sliding constraint Eq. 3,
+//!   material-space pullback Eq. 18, bending from I and II in Appendix A).
+//!
+//! The yarn energies come from the `rod` crate; Newton and sparse assembly from `solver`.
+//!
+//! Status: not yet implemented (tracked by the `sim-periodic` issue).
