@@ -1,0 +1,128 @@
+//! The figure registry: what a figure is, what it gets, what it returns.
+//!
+//! A figure is a plain function `fn(&FigureContext) -> anyhow::Result<FigureOutput>`
+//! plus a static description ([`FigureSpec`]). The function computes its data,
+//! draws its plot into [`FigureContext::out_dir`] (see [`crate::plot`]) and
+//! returns the plotted data; the runner ([`crate::report`]) writes the CSV,
+//! the manifest and the README index.
+
+use std::borrow::Cow;
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::table::Table;
+
+/// Static description of one figure and the function that produces it.
+#[derive(Debug, Clone)]
+pub struct FigureSpec {
+    /// Kebab-case name, e.g. `"rod-cantilever"`; also the folder and file stem.
+    pub name: &'static str,
+    /// Human-readable title.
+    pub title: &'static str,
+    /// One line: what the figure shows.
+    pub shows: &'static str,
+    /// One line: how it compares with the paper or the closed form.
+    pub paper: &'static str,
+    /// Whether the figure's data is a reference curve guarded by CI
+    /// (`reports/reference/<name>.csv`, checked by `workbench-tests`).
+    pub guarded: bool,
+    /// Computes the data, draws the plot into `ctx.out_dir`, returns the data.
+    pub run: fn(&FigureContext) -> anyhow::Result<FigureOutput>,
+}
+
+/// What a figure function gets from the runner.
+#[derive(Debug)]
+pub struct FigureContext {
+    /// The figure's name (use it as the file stem of the plot).
+    pub name: &'static str,
+    /// Quick mode: coarser sweeps so the whole set runs in seconds.
+    /// Guarded reference curves are always computed in quick mode.
+    pub quick: bool,
+    /// Folder to draw the plot into (already exists).
+    pub out_dir: PathBuf,
+    multi: MultiProgress,
+    bars: Mutex<Vec<ProgressBar>>,
+}
+
+impl FigureContext {
+    /// A context with progress output hidden (for tests and library use).
+    pub fn new(name: &'static str, quick: bool, out_dir: impl Into<PathBuf>) -> Self {
+        let multi = MultiProgress::with_draw_target(ProgressDrawTarget::hidden());
+        Self::with_progress(name, quick, out_dir.into(), multi)
+    }
+
+    pub(crate) fn with_progress(
+        name: &'static str,
+        quick: bool,
+        out_dir: PathBuf,
+        multi: MultiProgress,
+    ) -> Self {
+        Self {
+            name,
+            quick,
+            out_dir,
+            multi,
+            bars: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// A progress bar for `len` steps of this figure's work, shown under the
+    /// figure-level bar (hidden when stderr is not a terminal). Call
+    /// `inc(1)` per step; the runner clears it when the figure returns.
+    pub fn progress(&self, len: u64, message: impl Into<Cow<'static, str>>) -> ProgressBar {
+        let style = ProgressStyle::with_template("  {msg:24} [{bar:30}] {pos}/{len} {elapsed}")
+            .expect("valid template")
+            .progress_chars("=> ");
+        let bar = self.multi.add(
+            ProgressBar::new(len)
+                .with_style(style)
+                .with_message(message),
+        );
+        self.bars.lock().expect("progress lock").push(bar.clone());
+        bar
+    }
+
+    /// Clears every bar created by [`FigureContext::progress`].
+    pub(crate) fn clear_progress(&self) {
+        for bar in self.bars.lock().expect("progress lock").drain(..) {
+            bar.finish_and_clear();
+            self.multi.remove(&bar);
+        }
+    }
+}
+
+/// What a figure function returns.
+#[derive(Debug, Clone, Default)]
+pub struct FigureOutput {
+    /// The plotted data; written to `reports/<name>/<name>.csv` and, for
+    /// guarded figures, compared against `reports/reference/<name>.csv`.
+    pub data: Table,
+    /// Key numbers for the README and the summary, e.g.
+    /// `("error at 64 segments", "0.31 %")`.
+    pub summary: Vec<(String, String)>,
+    /// The parameters used (material, sweep, quick-mode choices); stored in
+    /// the manifest.
+    pub config: serde_json::Value,
+}
+
+/// Every registered figure, in README order.
+///
+/// Add a figure by writing a module in `bench/src/figures/` with a
+/// `pub fn spec() -> FigureSpec` and listing it here.
+pub fn all_figures() -> Vec<FigureSpec> {
+    use crate::figures::*;
+    vec![rod_cantilever::spec(), rod_convergence::spec()]
+}
+
+/// Formats a relative error as a percentage with three significant digits
+/// (`0.0123` → `"1.23 %"`, `4.2e-6` → `"4.20e-4 %"`), for figure key numbers.
+pub fn percent(relative: f64) -> String {
+    let p = 100.0 * relative;
+    if p == 0.0 || p.abs() >= 0.01 {
+        format!("{p:.3} %")
+    } else {
+        format!("{p:.2e} %")
+    }
+}

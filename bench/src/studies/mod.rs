@@ -1,0 +1,3 @@
+//! Computations behind the figures, kept apart from plotting so tests can call them directly.
+
+pub mod cantilever;

@@ -1,0 +1,411 @@
+//! Fixed-pattern sparse assembly of energies that are sums of per-stencil terms.
+//!
+//! A [`Problem`] is an energy `E(x) = Σ_k E_k(x_{S_k})`, where stencil `k` reads the DOFs
+//! `S_k = stencil_dofs(k)`. Its gradient and Hessian are sums of scattered local pieces,
+//!
+//! ```text
+//! ∇E = Σ_k P_kᵀ ∇E_k,      ∇²E = Σ_k P_kᵀ ∇²E_k P_k,
+//! ```
+//!
+//! with `P_k` the 0/1 matrix selecting `x_{S_k}` from `x`. Since the `S_k` never change, the
+//! sparsity pattern of `∇²E` is computed once, in [`Assembler::new`], together with, for every
+//! entry `(a, b)` of every local Hessian, the index of the CSC value it is added to. Each
+//! [`Assembler::assemble`] then
+//!
+//! 1. evaluates all stencils in parallel (rayon), each into its own preallocated slot, and
+//!    optionally projects each local Hessian onto the PSD cone (`rod::spd::project_spd`:
+//!    negative eigenvalues clamped to zero, Teran et al. 2005);
+//! 2. scatters the slots serially, in stencil order, into the gradient and the CSC values.
+//!
+//! Step 1 touches no shared state and step 2 is serial, so the result is bit-identical for any
+//! number of threads.
+//!
+//! **Storage.** The Hessian is stored as its **lower triangle** (row ≥ column) in CSC form, the
+//! input sparse Cholesky (`L Lᵀ`) expects; the diagonal is always part of the pattern (so that
+//! a diagonal regularization can be added in place). Local entries that fall in the strict upper
+//! triangle are skipped: the local Hessians are symmetric, so their mirror image carries the same
+//! value. With `T` the stored lower triangle, the full matrix is `T + Tᵀ − diag(T)`.
+//!
+//! **Dirichlet DOFs.** [`Assembler::with_fixed_dofs`] numbers only the free DOFs (in increasing
+//! DOF order) and leaves every Hessian entry that touches a fixed DOF out of the pattern: the
+//! Hessian is the free–free block `H_ff`. The gradient always has all `n_dofs` entries (the
+//! fixed ones are the reaction forces).
+
+use faer::sparse::{SparseColMat, SparseColMatRef};
+use rayon::prelude::*;
+
+use crate::SolveError;
+use crate::pattern::build_pattern;
+use rod::spd::{MAX_PROJECT_DIM, project_spd};
+
+/// An energy that is a sum of per-stencil terms over a DOF vector `x` (SI units throughout;
+/// the gradient is `∂E/∂x`, forces are its negative).
+///
+/// Implementors must be [`Sync`]: stencils are evaluated concurrently from several threads.
+pub trait Problem: Sync {
+    /// Number of degrees of freedom (length of `x`).
+    fn n_dofs(&self) -> usize;
+
+    /// Number of stencils (energy terms).
+    fn n_stencils(&self) -> usize;
+
+    /// DOF indices of stencil `k` (fixed for the problem's lifetime; defines the sparsity
+    /// pattern). Length may differ between stencils; a DOF may appear more than once.
+    fn stencil_dofs(&self, k: usize) -> &[usize];
+
+    /// Energy of stencil `k` at `x`. Writes its local gradient (`len = dofs.len()`) and, if
+    /// requested, its local dense Hessian (column-major, `len²`, symmetric) into caller-owned
+    /// buffers, which the caller has zeroed.
+    fn eval_stencil(&self, k: usize, x: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64;
+}
+
+/// Marks a local Hessian entry that is not stored (strict upper triangle or touches a fixed DOF).
+const SKIP: usize = usize::MAX;
+
+/// Preallocated output buffers of one stencil.
+#[derive(Clone, Debug)]
+struct StencilSlot {
+    energy: f64,
+    grad: Vec<f64>,
+    hess: Vec<f64>,
+}
+
+/// The result of [`Assembler::assemble`], borrowing the assembler's buffers.
+#[derive(Clone, Copy, Debug)]
+pub struct Assembled<'a> {
+    /// Total energy `E(x)`.
+    pub energy: f64,
+    /// Full gradient `∂E/∂x` (length `n_dofs`, fixed DOFs included).
+    pub gradient: &'a [f64],
+    /// Lower triangle of the free–free Hessian block, `n_free × n_free`, in free-DOF numbering
+    /// (see [`Assembler::free_index`]).
+    pub hessian: SparseColMatRef<'a, usize, f64>,
+}
+
+/// Assembles energy, gradient and sparse Hessian of a [`Problem`] into a sparsity pattern that
+/// is computed once. See the [module documentation](self) for the algorithm.
+#[derive(Clone, Debug)]
+pub struct Assembler {
+    n_dofs: usize,
+    /// `free_index[dof]`: the DOF's row/column in the Hessian, `None` if fixed.
+    free_index: Vec<Option<usize>>,
+    n_free: usize,
+    /// DOFs of stencil `k`: `stencil_dofs[stencil_offsets[k]..stencil_offsets[k + 1]]`.
+    stencil_offsets: Vec<usize>,
+    stencil_dofs: Vec<usize>,
+    /// Target CSC value index (or [`SKIP`]) of local Hessian entry `a + m b` of stencil `k`:
+    /// `hess_target[hess_offsets[k] + a + m b]`.
+    hess_offsets: Vec<usize>,
+    hess_target: Vec<usize>,
+    /// CSC value index of the diagonal entry of each free DOF.
+    diag_slots: Vec<usize>,
+    max_stencil_len: usize,
+    slots: Vec<StencilSlot>,
+    energy: f64,
+    energy_abs_sum: f64,
+    gradient: Vec<f64>,
+    hessian: SparseColMat<usize, f64>,
+}
+
+impl Assembler {
+    /// Builds the sparsity pattern of the full Hessian of `problem` (no fixed DOFs).
+    pub fn new<P: Problem + ?Sized>(problem: &P) -> Result<Self, SolveError> {
+        Self::with_fixed_dofs(problem, &vec![false; problem.n_dofs()])
+    }
+
+    /// Builds the sparsity pattern of the free–free Hessian block, where `fixed[dof]` marks the
+    /// Dirichlet DOFs (`fixed.len() == n_dofs`).
+    pub fn with_fixed_dofs<P: Problem + ?Sized>(
+        problem: &P,
+        fixed: &[bool],
+    ) -> Result<Self, SolveError> {
+        let n_dofs = problem.n_dofs();
+        check_len("fixed-DOF mask", n_dofs, fixed.len())?;
+        let mut free_index = vec![None; n_dofs];
+        let mut n_free = 0;
+        for (dof, &is_fixed) in fixed.iter().enumerate() {
+            if !is_fixed {
+                free_index[dof] = Some(n_free);
+                n_free += 1;
+            }
+        }
+
+        // Copy the stencils' DOF lists (to detect later changes and for the gradient scatter).
+        let n_stencils = problem.n_stencils();
+        let mut stencil_offsets = Vec::with_capacity(n_stencils + 1);
+        let mut stencil_dofs = Vec::new();
+        stencil_offsets.push(0);
+        for k in 0..n_stencils {
+            let dofs = problem.stencil_dofs(k);
+            if let Some(&bad) = dofs.iter().find(|&&d| d >= n_dofs) {
+                return Err(SolveError::InvalidProblem(format!(
+                    "stencil {k} references DOF {bad}, but the problem has {n_dofs} DOFs"
+                )));
+            }
+            stencil_dofs.extend_from_slice(dofs);
+            stencil_offsets.push(stencil_dofs.len());
+        }
+
+        // Coordinates of the stored entries: every free diagonal first, then each stencil's
+        // local entries that land in the free–free lower triangle. `hess_target` temporarily
+        // holds indices into `coords`, replaced by CSC value indices below.
+        let mut coords: Vec<(usize, usize)> = (0..n_free).map(|i| (i, i)).collect();
+        let mut hess_offsets = Vec::with_capacity(n_stencils + 1);
+        let mut hess_target = Vec::new();
+        hess_offsets.push(0);
+        for k in 0..n_stencils {
+            let dofs = &stencil_dofs[stencil_offsets[k]..stencil_offsets[k + 1]];
+            for &col_dof in dofs {
+                for &row_dof in dofs {
+                    let target = match (free_index[row_dof], free_index[col_dof]) {
+                        (Some(row), Some(col)) if row >= col => {
+                            coords.push((row, col));
+                            coords.len() - 1
+                        }
+                        _ => SKIP,
+                    };
+                    hess_target.push(target);
+                }
+            }
+            hess_offsets.push(hess_target.len());
+        }
+        let (symbolic, slot_of) = build_pattern(n_free, n_free, &coords);
+        for t in hess_target.iter_mut().filter(|t| **t != SKIP) {
+            *t = slot_of[*t];
+        }
+        let diag_slots = slot_of[..n_free].to_vec();
+        let nnz = symbolic.row_idx().len();
+
+        let slots = (0..n_stencils)
+            .map(|k| {
+                let m = stencil_offsets[k + 1] - stencil_offsets[k];
+                StencilSlot {
+                    energy: 0.0,
+                    grad: vec![0.0; m],
+                    hess: vec![0.0; m * m],
+                }
+            })
+            .collect();
+        let max_stencil_len = (0..n_stencils)
+            .map(|k| stencil_offsets[k + 1] - stencil_offsets[k])
+            .max()
+            .unwrap_or(0);
+
+        Ok(Self {
+            n_dofs,
+            free_index,
+            n_free,
+            stencil_offsets,
+            stencil_dofs,
+            hess_offsets,
+            hess_target,
+            diag_slots,
+            max_stencil_len,
+            slots,
+            energy: 0.0,
+            energy_abs_sum: 0.0,
+            gradient: vec![0.0; n_dofs],
+            hessian: SparseColMat::new(symbolic, vec![0.0; nnz]),
+        })
+    }
+
+    /// Number of DOFs of the problem.
+    pub fn n_dofs(&self) -> usize {
+        self.n_dofs
+    }
+
+    /// Number of free (non-Dirichlet) DOFs: the Hessian's dimension.
+    pub fn n_free(&self) -> usize {
+        self.n_free
+    }
+
+    /// Row/column of `dof` in the Hessian, or `None` if it is fixed (or out of range).
+    pub fn free_index(&self, dof: usize) -> Option<usize> {
+        self.free_index.get(dof).copied().flatten()
+    }
+
+    /// Energy, gradient and Hessian at `x`. With `project_spd`, every local Hessian is projected
+    /// onto the PSD cone before the scatter, so the assembled Hessian is positive semi-definite.
+    ///
+    /// Errors if `x` has the wrong length, if the problem's stencils changed, or if projection
+    /// is requested for a stencil with more than 32 DOFs.
+    pub fn assemble<P: Problem + ?Sized>(
+        &mut self,
+        problem: &P,
+        x: &[f64],
+        project_spd: bool,
+    ) -> Result<Assembled<'_>, SolveError> {
+        self.check_inputs(problem, x)?;
+        if project_spd && self.max_stencil_len > MAX_PROJECT_DIM {
+            return Err(SolveError::InvalidProblem(format!(
+                "SPD projection supports stencils of at most {MAX_PROJECT_DIM} DOFs, found {}",
+                self.max_stencil_len
+            )));
+        }
+        self.evaluate(problem, x, Some(project_spd));
+        self.scatter_gradient();
+        let values = self.hessian.val_mut();
+        values.fill(0.0);
+        for (k, slot) in self.slots.iter().enumerate() {
+            let targets = &self.hess_target[self.hess_offsets[k]..self.hess_offsets[k + 1]];
+            for (&target, &h) in targets.iter().zip(&slot.hess) {
+                if target != SKIP {
+                    values[target] += h;
+                }
+            }
+        }
+        Ok(Assembled {
+            energy: self.energy,
+            gradient: &self.gradient,
+            hessian: self.hessian.as_ref(),
+        })
+    }
+
+    /// Energy and full gradient at `x` (no Hessian).
+    pub fn gradient<P: Problem + ?Sized>(
+        &mut self,
+        problem: &P,
+        x: &[f64],
+    ) -> Result<(f64, &[f64]), SolveError> {
+        self.check_inputs(problem, x)?;
+        self.evaluate(problem, x, None);
+        self.scatter_gradient();
+        Ok((self.energy, &self.gradient))
+    }
+
+    /// Energy at `x` only (the cheap evaluation line searches need). Stencils are evaluated in
+    /// parallel and summed serially in stencil order, so the result is thread-count independent.
+    pub fn energy<P: Problem + ?Sized>(
+        &mut self,
+        problem: &P,
+        x: &[f64],
+    ) -> Result<f64, SolveError> {
+        self.check_inputs(problem, x)?;
+        self.evaluate(problem, x, None);
+        self.sum_energies();
+        Ok(self.energy)
+    }
+
+    /// `Σ_k |E_k|` from the most recent evaluation: the scale of the rounding error in the
+    /// computed total energy (used to tell real energy decreases from rounding noise).
+    pub fn energy_abs_sum(&self) -> f64 {
+        self.energy_abs_sum
+    }
+
+    /// The Hessian (lower triangle of the free–free block) from the most recent
+    /// [`assemble`](Self::assemble).
+    pub fn hessian(&self) -> SparseColMatRef<'_, usize, f64> {
+        self.hessian.as_ref()
+    }
+
+    /// Mutable Hessian values and the value index of every free diagonal entry, for in-place
+    /// regularization by the solvers.
+    pub(crate) fn hessian_values_and_diagonal(&mut self) -> (&mut [f64], &[usize]) {
+        (self.hessian.val_mut(), &self.diag_slots)
+    }
+
+    /// Value index of every free DOF's diagonal entry in the Hessian's CSC value array.
+    pub(crate) fn diagonal_slots(&self) -> &[usize] {
+        &self.diag_slots
+    }
+
+    /// The full gradient from the most recent evaluation.
+    pub(crate) fn last_gradient(&self) -> &[f64] {
+        &self.gradient
+    }
+
+    /// Validates `x` and that `problem` still has the stencils the pattern was built for.
+    fn check_inputs<P: Problem + ?Sized>(&self, problem: &P, x: &[f64]) -> Result<(), SolveError> {
+        check_len("x", self.n_dofs, x.len())?;
+        if problem.n_dofs() != self.n_dofs || problem.n_stencils() != self.slots.len() {
+            return Err(SolveError::PatternChanged(format!(
+                "built for {} DOFs / {} stencils, got {} / {}",
+                self.n_dofs,
+                self.slots.len(),
+                problem.n_dofs(),
+                problem.n_stencils()
+            )));
+        }
+        for k in 0..self.slots.len() {
+            let stored = &self.stencil_dofs[self.stencil_offsets[k]..self.stencil_offsets[k + 1]];
+            if problem.stencil_dofs(k) != stored {
+                return Err(SolveError::PatternChanged(format!(
+                    "DOFs of stencil {k} changed"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Evaluates every stencil into its own slot, in parallel. `hessian`: `None` for energy and
+    /// gradient only, `Some(project_spd)` to also compute (and optionally project) the Hessian.
+    fn evaluate<P: Problem + ?Sized>(&mut self, problem: &P, x: &[f64], hessian: Option<bool>) {
+        self.slots.par_iter_mut().enumerate().for_each(|(k, slot)| {
+            slot.grad.fill(0.0);
+            slot.energy = match hessian {
+                None => problem.eval_stencil(k, x, &mut slot.grad, None),
+                Some(project) => {
+                    slot.hess.fill(0.0);
+                    let e = problem.eval_stencil(k, x, &mut slot.grad, Some(&mut slot.hess));
+                    if project {
+                        // Sizes are checked in `assemble` (rod asserts n ≤ MAX_PROJECT_DIM).
+                        project_spd(&mut slot.hess, slot.grad.len());
+                    }
+                    e
+                }
+            };
+        });
+    }
+
+    /// Serial, stencil-ordered sum of the slot energies.
+    fn sum_energies(&mut self) {
+        self.energy = self.slots.iter().map(|s| s.energy).sum();
+        self.energy_abs_sum = self.slots.iter().map(|s| s.energy.abs()).sum();
+    }
+
+    /// Serial, stencil-ordered scatter of the slot energies and gradients.
+    fn scatter_gradient(&mut self) {
+        self.sum_energies();
+        self.gradient.fill(0.0);
+        for (k, slot) in self.slots.iter().enumerate() {
+            let dofs = &self.stencil_dofs[self.stencil_offsets[k]..self.stencil_offsets[k + 1]];
+            for (&dof, &g) in dofs.iter().zip(&slot.grad) {
+                self.gradient[dof] += g;
+            }
+        }
+    }
+}
+
+/// `Err(DimensionMismatch)` unless `got == expected`.
+pub(crate) fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), SolveError> {
+    if got == expected {
+        Ok(())
+    } else {
+        Err(SolveError::DimensionMismatch {
+            what,
+            expected,
+            got,
+        })
+    }
+}
+
+/// Evaluates a fixed-size [`rod::Stencil`] for [`Problem::eval_stencil`]: gathers its local
+/// DOF vector `q = x[dofs]`, and writes the local gradient and (if requested) Hessian into the
+/// caller's buffers. Every problem built from `rod` stencils uses this instead of writing its
+/// own gather/scatter code.
+pub fn eval_rod_stencil<const N: usize>(
+    stencil: &impl rod::Stencil<N>,
+    dofs: &[usize],
+    x: &[f64],
+    grad: &mut [f64],
+    hess: Option<&mut [f64]>,
+) -> f64 {
+    debug_assert_eq!(dofs.len(), N);
+    let q = nalgebra::SVector::<f64, N>::from_fn(|i, _| x[dofs[i]]);
+    let e = stencil.eval(&q);
+    grad.copy_from_slice(e.gradient.as_slice());
+    if let Some(h) = hess {
+        h.copy_from_slice(e.hessian.as_slice());
+    }
+    e.energy
+}

@@ -1,0 +1,152 @@
+//! Thin wrappers around faer's sparse factorizations with a fixed sparsity pattern.
+//!
+//! The symbolic analysis (fill-reducing ordering, elimination tree, supernodes) is done once in
+//! `new`; `factorize` only redoes the numeric part for new values on the same pattern. All
+//! workspace is allocated up front. Everything runs with [`Par::Seq`], so results never depend
+//! on the rayon thread count (the assembly is where the parallelism is).
+
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky,
+};
+use faer::sparse::linalg::lu::{
+    LuRef, LuSymbolicParams, NumericLu, SymbolicLu, factorize_symbolic_lu,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par, Side};
+
+use crate::SolveError;
+
+/// Sparse Cholesky `A = L Lᵀ` of a symmetric positive definite matrix given by its lower
+/// triangle (rows ≥ columns), with AMD ordering.
+pub(crate) struct SparseLlt {
+    symbolic: SymbolicCholesky<usize>,
+    l_values: Vec<f64>,
+    mem: MemBuffer,
+    factorized: bool,
+}
+
+impl SparseLlt {
+    /// Symbolic analysis of the lower-triangular pattern `lower`.
+    pub(crate) fn new(lower: SymbolicSparseColMatRef<'_, usize>) -> Result<Self, SolveError> {
+        let symbolic = factorize_symbolic_cholesky(
+            lower,
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams::default(),
+        )
+        .map_err(|e| SolveError::LinearAlgebra(format!("symbolic Cholesky: {e:?}")))?;
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        let mem = MemBuffer::try_new(req).map_err(|_| {
+            SolveError::LinearAlgebra("out of memory for Cholesky workspace".into())
+        })?;
+        let l_values = vec![0.0; symbolic.len_val()];
+        Ok(Self {
+            symbolic,
+            l_values,
+            mem,
+            factorized: false,
+        })
+    }
+
+    /// Numeric factorization of `a` (same pattern as in `new`, lower triangle). Fails if a pivot
+    /// is not positive (the matrix is not numerically positive definite).
+    pub(crate) fn factorize(&mut self, a: SparseColMatRef<'_, usize, f64>) -> Result<(), String> {
+        self.factorized = false;
+        self.symbolic
+            .factorize_numeric_llt(
+                &mut self.l_values,
+                a,
+                Side::Lower,
+                LltRegularization::default(),
+                Par::Seq,
+                MemStack::new(&mut self.mem),
+                Default::default(),
+            )
+            .map_err(|e| format!("Cholesky: {e:?}"))?;
+        self.factorized = true;
+        Ok(())
+    }
+
+    /// Overwrites `rhs` with `A⁻¹ rhs` using the last successful factorization.
+    pub(crate) fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), String> {
+        if !self.factorized {
+            return Err("solve requested without a valid factorization".into());
+        }
+        let n = rhs.len();
+        LltRef::new(&self.symbolic, &self.l_values).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(rhs, n, 1),
+            Par::Seq,
+            MemStack::new(&mut self.mem),
+        );
+        Ok(())
+    }
+}
+
+/// Sparse LU `P A Q = L U` (COLAMD column ordering, partial row pivoting) of a general square
+/// matrix given by its full pattern.
+pub(crate) struct SparseLu {
+    symbolic: SymbolicLu<usize>,
+    numeric: NumericLu<usize, f64>,
+    mem: MemBuffer,
+    factorized: bool,
+}
+
+impl SparseLu {
+    /// Symbolic analysis of the full pattern `pattern`.
+    pub(crate) fn new(pattern: SymbolicSparseColMatRef<'_, usize>) -> Result<Self, SolveError> {
+        let symbolic = factorize_symbolic_lu(pattern, LuSymbolicParams::default())
+            .map_err(|e| SolveError::LinearAlgebra(format!("symbolic LU: {e:?}")))?;
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        let mem = MemBuffer::try_new(req)
+            .map_err(|_| SolveError::LinearAlgebra("out of memory for LU workspace".into()))?;
+        Ok(Self {
+            symbolic,
+            numeric: NumericLu::new(),
+            mem,
+            factorized: false,
+        })
+    }
+
+    /// Numeric factorization of `a` (same pattern as in `new`). Only structural singularity is
+    /// reported here; numerical singularity shows up as non-finite or inaccurate solutions,
+    /// which callers check.
+    pub(crate) fn factorize(&mut self, a: SparseColMatRef<'_, usize, f64>) -> Result<(), String> {
+        self.factorized = false;
+        self.symbolic
+            .factorize_numeric_lu(
+                &mut self.numeric,
+                a,
+                Par::Seq,
+                MemStack::new(&mut self.mem),
+                Default::default(),
+            )
+            .map_err(|e| format!("LU: {e:?}"))?;
+        self.factorized = true;
+        Ok(())
+    }
+
+    /// Overwrites `rhs` with `A⁻¹ rhs` using the last successful factorization.
+    pub(crate) fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), String> {
+        if !self.factorized {
+            return Err("solve requested without a valid factorization".into());
+        }
+        let n = rhs.len();
+        LuRef::new_unchecked(&self.symbolic, &self.numeric).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(rhs, n, 1),
+            Par::Seq,
+            MemStack::new(&mut self.mem),
+        );
+        Ok(())
+    }
+}

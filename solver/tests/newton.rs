@@ -1,0 +1,260 @@
+//! Newton minimization: convergence, Dirichlet elimination, failure reporting.
+
+mod common;
+
+use common::{
+    CoshChain, DoubleWell, LinearChain, Rng, assert_close, dense_solve, hanging_net, spd_quadratic,
+};
+use solver::{NewtonSettings, NewtonSolver, Problem, SolveError, Termination, minimize};
+
+#[test]
+fn quadratic_is_solved_in_one_step() {
+    let q = spd_quadratic(3, 40);
+    let mut x = vec![0.0; q.n];
+    let report = minimize(&q, &mut x, &vec![false; q.n], &NewtonSettings::default()).unwrap();
+    assert_eq!(report.iterations, 1);
+    assert_eq!(report.termination, Termination::GradientTolerance);
+    assert_eq!(report.step_lengths, vec![1.0]);
+    assert_eq!(report.regularizations, vec![0.0]);
+    // Reference: H x = −g(0).
+    let (h, g0) = q.dense(&vec![0.0; q.n]);
+    let neg_g0: Vec<f64> = g0.iter().map(|g| -g).collect();
+    assert_close(&x, &dense_solve(&h, &neg_g0), 1e-10, "x");
+}
+
+#[test]
+fn convex_cosh_chain_converges_quadratically() {
+    let mut rng = Rng::new(5);
+    let n = 60;
+    let anchors = (0..n).map(|_| rng.range(-2.0, 2.0)).collect();
+    let problem = CoshChain::new(n, 0.3, anchors);
+    let mut x = vec![3.0; n];
+    let settings = NewtonSettings {
+        gradient_abs_tol: 1e-12,
+        gradient_rel_tol: 0.0,
+        ..Default::default()
+    };
+    let report = minimize(&problem, &mut x, &vec![false; n], &settings).unwrap();
+    assert!(report.converged());
+    assert!(
+        report.iterations > 2,
+        "should need several steps, took {}",
+        report.iterations
+    );
+    assert!(report.last_residual() <= 1e-12);
+    assert_eq!(report.energy_history.len(), report.iterations + 1);
+    assert_eq!(report.residual_history.len(), report.iterations + 1);
+    for w in report.energy_history.windows(2) {
+        assert!(w[1] <= w[0] + 1e-12 * w[0].abs(), "energy increased: {w:?}");
+    }
+    // Quadratic convergence at the end: r_{k+1} ≲ C r_k².
+    let r = &report.residual_history;
+    let k = r.len() - 2;
+    assert!(
+        r[k] < 1e-3 && r[k + 1] <= 10.0 * r[k] * r[k] + 1e-13,
+        "{r:?}"
+    );
+    // Independent optimality check.
+    let mut asm = solver::Assembler::new(&problem).unwrap();
+    let (_, g) = asm.gradient(&problem, &x).unwrap();
+    assert!(g.iter().all(|g| g.abs() <= 1e-12));
+}
+
+#[test]
+fn double_well_converges_with_projection() {
+    let n = 20;
+    let problem = DoubleWell::new(n, 0.1);
+    // Start inside the concave region |x| < 1/√3 of every well.
+    let x0: Vec<f64> = (0..n).map(|i| 0.1 * (i as f64).sin()).collect();
+    for project_spd in [true, false] {
+        let mut x = x0.clone();
+        let settings = NewtonSettings {
+            project_spd,
+            ..Default::default()
+        };
+        let report = minimize(&problem, &mut x, &vec![false; n], &settings)
+            .unwrap_or_else(|e| panic!("project_spd = {project_spd}: {e}"));
+        assert!(report.converged());
+        assert!(problem.gradient(&x).iter().all(|g| g.abs() <= 1e-9));
+        // Early iterations needed the diagonal shift (H is singular or indefinite at x0).
+        assert!(
+            report.regularizations[0] > 0.0,
+            "{:?}",
+            report.regularizations
+        );
+        // A local minimum: the exact Hessian is positive definite there.
+        let h = nalgebra::DMatrix::from_fn(n, n, |i, j| {
+            let deg = if i == 0 || i == n - 1 { 1.0 } else { 2.0 };
+            match i.abs_diff(j) {
+                0 => 12.0 * x[i] * x[i] - 4.0 + 0.1 * deg,
+                1 => -0.1,
+                _ => 0.0,
+            }
+        });
+        assert!(h.symmetric_eigenvalues().min() > 0.0);
+        assert!(report.energy_history.last().unwrap() < &report.energy_history[0]);
+    }
+}
+
+#[test]
+fn iteration_limit_is_an_error_with_report() {
+    let problem = CoshChain::new(10, 0.0, vec![0.0; 10]);
+    let mut x = vec![20.0; 10];
+    let settings = NewtonSettings {
+        max_iterations: 1,
+        ..Default::default()
+    };
+    let err = minimize(&problem, &mut x, &[false; 10], &settings).unwrap_err();
+    let SolveError::NotConverged(report) = &err else {
+        panic!("expected NotConverged, got {err}")
+    };
+    assert_eq!(report.iterations, 1);
+    assert_eq!(report.termination, Termination::MaxIterations);
+    assert_eq!(report.energy_history.len(), 2);
+    assert_eq!(report.residual_history.len(), 2);
+    assert!(report.energy_history[1] < report.energy_history[0]);
+    assert!(!report.converged());
+    assert!(err.report().is_some());
+    assert!(err.to_string().contains("did not converge"));
+}
+
+/// Series springs with both ends clamped: every spring carries the same tension
+/// `F = (X_N − X_0 − Σ L_e) / Σ (1 / k_e)`, so `x_i = x_{i−1} + L_e + F / k_e`.
+#[test]
+fn dirichlet_dofs_stay_fixed_and_free_dofs_are_optimal() {
+    let mut rng = Rng::new(9);
+    let n = 30;
+    let chain = LinearChain {
+        edges: (0..n - 1).map(|i| [i, i + 1]).collect(),
+        k: (0..n - 1).map(|_| rng.range(1.0, 100.0)).collect(),
+        rest: (0..n - 1).map(|_| rng.range(0.01, 0.1)).collect(),
+    };
+    let (x_start, x_end) = (0.1, 2.3);
+    let mut x: Vec<f64> = (0..n).map(|_| rng.range(-1.0, 1.0)).collect();
+    x[0] = x_start;
+    x[n - 1] = x_end;
+    let mut fixed = vec![false; n];
+    fixed[0] = true;
+    fixed[n - 1] = true;
+    let report = minimize(&chain, &mut x, &fixed, &NewtonSettings::default()).unwrap();
+    assert!(report.converged());
+    assert_eq!(x[0].to_bits(), x_start.to_bits());
+    assert_eq!(x[n - 1].to_bits(), x_end.to_bits());
+    let compliance: f64 = chain.k.iter().map(|k| 1.0 / k).sum();
+    let tension = (x_end - x_start - chain.rest.iter().sum::<f64>()) / compliance;
+    let mut expected = vec![x_start];
+    for e in 0..n - 1 {
+        expected.push(expected[e] + chain.rest[e] + tension / chain.k[e]);
+    }
+    assert_close(&x, &expected, 1e-12, "x");
+}
+
+/// A hanging nonlinear spring net (clamped top row, gravity load): fixed DOFs are bit-for-bit
+/// unchanged and the free gradient vanishes.
+#[test]
+fn hanging_spring_net_with_dirichlet_rows() {
+    let (net, mut x, fixed) = hanging_net(6, 5);
+    let x0 = x.clone();
+    let mut solver = NewtonSolver::new(&net, &fixed).unwrap();
+    let report = solver
+        .minimize(&net, &mut x, &NewtonSettings::default())
+        .unwrap();
+    assert!(report.converged());
+    for d in 0..net.n_dofs() {
+        if fixed[d] {
+            assert_eq!(x[d].to_bits(), x0[d].to_bits());
+        }
+    }
+    let mut asm = solver::Assembler::with_fixed_dofs(&net, &fixed).unwrap();
+    let (_, g) = asm.gradient(&net, &x).unwrap();
+    for d in (0..net.n_dofs()).filter(|&d| !fixed[d]) {
+        assert!(g[d].abs() <= 1e-9, "g[{d}] = {}", g[d]);
+    }
+    // The solver is reusable: restarting from the solution converges immediately.
+    let mut x2 = x.clone();
+    let again = solver
+        .minimize(&net, &mut x2, &NewtonSettings::default())
+        .unwrap();
+    assert!(again.iterations <= 1);
+}
+
+#[test]
+fn all_dofs_fixed_converges_immediately() {
+    let chain = LinearChain::uniform(3, 1.0, 1.0);
+    let mut x = vec![0.0, 5.0, 6.0];
+    let report = minimize(&chain, &mut x, &[true; 3], &NewtonSettings::default()).unwrap();
+    assert_eq!(report.iterations, 0);
+    assert_eq!(x, vec![0.0, 5.0, 6.0]);
+}
+
+/// `E(x) = x − ln x` (minimum at 1): the full Newton step from x = 10 leaves the domain
+/// (E = NaN), so the line search must backtrack; starting outside the domain is an error.
+struct LogBarrier([usize; 1]);
+
+impl Problem for LogBarrier {
+    fn n_dofs(&self) -> usize {
+        1
+    }
+    fn n_stencils(&self) -> usize {
+        1
+    }
+    fn stencil_dofs(&self, _: usize) -> &[usize] {
+        &self.0
+    }
+    fn eval_stencil(&self, _: usize, x: &[f64], g: &mut [f64], h: Option<&mut [f64]>) -> f64 {
+        g[0] = 1.0 - 1.0 / x[0];
+        if let Some(h) = h {
+            h[0] = 1.0 / (x[0] * x[0]);
+        }
+        x[0] - x[0].ln()
+    }
+}
+
+#[test]
+fn line_search_rejects_non_finite_trials_and_non_finite_start_fails() {
+    let problem = LogBarrier([0]);
+    let mut x = vec![10.0];
+    let report = minimize(&problem, &mut x, &[false], &NewtonSettings::default()).unwrap();
+    assert!((x[0] - 1.0).abs() < 1e-10);
+    assert!(report.line_search_backtracks > 0);
+    assert!(report.step_lengths[0] < 1.0);
+
+    let mut bad = vec![-1.0];
+    let err = minimize(&problem, &mut bad, &[false], &NewtonSettings::default()).unwrap_err();
+    assert!(
+        matches!(err, SolveError::NonFinite(ref r) if r.iterations == 0),
+        "{err}"
+    );
+}
+
+#[test]
+fn invalid_settings_and_lengths_are_errors() {
+    let chain = LinearChain::uniform(3, 1.0, 1.0);
+    let mut x = vec![0.0; 3];
+    let settings = NewtonSettings {
+        armijo: 1.5,
+        ..Default::default()
+    };
+    assert!(matches!(
+        minimize(&chain, &mut x, &[false; 3], &settings),
+        Err(SolveError::InvalidSettings(_))
+    ));
+    let settings = NewtonSettings {
+        regularization_growth: 1.0,
+        ..Default::default()
+    };
+    assert!(matches!(
+        minimize(&chain, &mut x, &[false; 3], &settings),
+        Err(SolveError::InvalidSettings(_))
+    ));
+    assert!(matches!(
+        minimize(&chain, &mut x, &[false; 2], &NewtonSettings::default()),
+        Err(SolveError::DimensionMismatch { .. })
+    ));
+    let mut short = vec![0.0; 2];
+    let mut solver = NewtonSolver::new(&chain, &[false; 3]).unwrap();
+    assert!(matches!(
+        solver.minimize(&chain, &mut short, &NewtonSettings::default()),
+        Err(SolveError::DimensionMismatch { .. })
+    ));
+}

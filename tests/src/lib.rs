@@ -1,0 +1,1 @@
+//! Cross-method validation and reference-curve regression tests live in `tests/tests/`.

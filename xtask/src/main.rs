@@ -1,0 +1,114 @@
+//! Repository automation.
+//!
+//! ```text
+//! cargo xtask reproduce-figures [--quick] [--only NAME[,NAME]] [--bless]
+//! cargo xtask list
+//! ```
+//!
+//! Figures are written to `<workspace>/reports/`; see `bench::report`.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(about = "Repository automation for the yarn-level cloth workbench")]
+struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Run figure generators into reports/<name>/ and regenerate reports/README.md.
+    ReproduceFigures {
+        /// Coarse sweeps: every figure in seconds.
+        #[arg(long)]
+        quick: bool,
+        /// Only these figures (comma-separated or repeated).
+        #[arg(long, value_name = "NAME", value_delimiter = ',')]
+        only: Vec<String>,
+        /// Rewrite reports/reference/<name>.csv for guarded figures. Implies
+        /// --quick: the reference-curve test recomputes guarded figures in
+        /// quick mode, so the references must be quick-mode data.
+        #[arg(long)]
+        bless: bool,
+    },
+    /// List the registered figures.
+    List,
+}
+
+fn main() -> ExitCode {
+    let result = match Cli::parse().command {
+        Cmd::ReproduceFigures { quick, only, bless } => reproduce_figures(quick, only, bless),
+        Cmd::List => {
+            list();
+            Ok(ExitCode::SUCCESS)
+        }
+    };
+    result.unwrap_or_else(|e| {
+        eprintln!("error: {e:#}");
+        ExitCode::from(2)
+    })
+}
+
+/// The workspace root: the parent of this crate's manifest folder.
+fn workspace_root() -> anyhow::Result<PathBuf> {
+    let manifest_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    manifest_dir
+        .parent()
+        .map(Path::to_path_buf)
+        .context("xtask manifest folder has no parent")
+}
+
+fn reproduce_figures(quick: bool, only: Vec<String>, bless: bool) -> anyhow::Result<ExitCode> {
+    let reports_dir = workspace_root()?.join("reports");
+    if bless && !quick {
+        eprintln!("note: --bless implies --quick (reference curves are quick-mode data)");
+    }
+    let opts = bench::RunOptions {
+        quick,
+        only: (!only.is_empty()).then_some(only),
+        bless,
+        reports_dir: reports_dir.clone(),
+    };
+    let runs = bench::run_figures(&opts)?;
+    if runs.is_empty() {
+        println!(
+            "no figures are registered yet; wrote {}",
+            reports_dir.join("README.md").display()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+
+    print!("{}", bench::report::summary_table(&runs));
+    println!("reports: {}", reports_dir.display());
+    if bless && !runs.iter().any(|r| r.blessed) {
+        println!("note: --bless wrote nothing (no guarded figure among those run)");
+    }
+    let failed: Vec<_> = runs.iter().filter(|r| r.error.is_some()).collect();
+    for run in &failed {
+        if let Some(e) = &run.error {
+            eprintln!("\nerror in {}: {e:#}", run.name);
+        }
+    }
+    Ok(if failed.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+fn list() {
+    let figures = bench::all_figures();
+    if figures.is_empty() {
+        println!("no figures are registered yet");
+    }
+    let width = figures.iter().map(|f| f.name.len()).max().unwrap_or(0);
+    for f in figures {
+        let guarded = if f.guarded { "  [guarded]" } else { "" };
+        println!("{:<width$}  {}{guarded}", f.name, f.title);
+    }
+}
