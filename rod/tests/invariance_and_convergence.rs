@@ -160,3 +160,50 @@ fn bending_of_a_circle_and_a_helix_converges_at_second_order() {
         }
     }
 }
+
+#[test]
+fn material_bending_is_invariant_when_positions_and_frames_move_rigidly() {
+    use rod::geometry::Frame;
+    use rod::material_bending::MaterialBending;
+    let x = [
+        Vector3::new(0.0, 0.0, 0.0),
+        Vector3::new(1e-3, 1e-4, 0.0),
+        Vector3::new(1.5e-3, 0.9e-3, 0.3e-3),
+    ];
+    let frame = |a: &Vector3<f64>, b: &Vector3<f64>, hint: &Vector3<f64>| {
+        Frame::new(&(b - a), hint).unwrap()
+    };
+    let make = |x: &[Vector3<f64>; 3], r: &Rotation3<f64>| MaterialBending {
+        stiffness: 1e-6,
+        rest_lengths: (1e-3, 1e-3),
+        rest_curvature: nalgebra::Vector2::new(0.2, -0.1),
+        reference: (
+            frame(&x[0], &x[1], &(r * Vector3::z())),
+            frame(&x[1], &x[2], &(r * Vector3::new(0.3, 0.0, 1.0))),
+        ),
+    };
+    let pack = |x: &[Vector3<f64>; 3]| {
+        let mut q = SVector::<f64, 11>::zeros();
+        for (k, xk) in x.iter().enumerate() {
+            q.fixed_rows_mut::<3>(3 * k).copy_from(xk);
+        }
+        q[9] = 0.3;
+        q[10] = -0.2;
+        q
+    };
+    let id = Rotation3::identity();
+    let e0 = make(&x, &id).energy(&pack(&x));
+    assert!(e0 > 0.0);
+    let r = Rotation3::from_axis_angle(
+        &nalgebra::Unit::new_normalize(Vector3::new(1.0, -2.0, 0.5)),
+        1.1,
+    );
+    let t = Vector3::new(2e-3, -1e-3, 4e-3);
+    let y = x.map(|p| r * p + t);
+    let e1 = make(&y, &r).energy(&pack(&y));
+    assert!((e1 - e0).abs() <= 1e-12 * e0, "{e0} → {e1}");
+    // Rotating the material frames about the edges (twist) does change the energy.
+    let mut q = pack(&x);
+    q[9] += 0.5;
+    assert!((make(&x, &id).energy(&q) - e0).abs() > 1e-6 * e0);
+}
