@@ -118,3 +118,15 @@ pub fn measured_order(ns: &[usize], errors: &[f64]) -> f64 {
     let var: f64 = xs.iter().map(|x| (x - sx).powi(2)).sum();
     -cov / var
 }
+
+/// `|discrete − continuous| / continuous` of [`helix_bending_energy`] (the stiffness cancels).
+pub fn relative_bending_error(
+    model: BendingModel,
+    helix: &Helix,
+    span: f64,
+    n: usize,
+    closed: bool,
+) -> f64 {
+    let (d, c) = helix_bending_energy(model, helix, span, n, closed, 1.0);
+    ((d - c) / c).abs()
+}

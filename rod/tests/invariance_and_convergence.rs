@@ -6,7 +6,7 @@ use rod::bending::{AngleBending, BinormalBending, Jamming};
 use rod::contact::{BarrierPhase, EdgeContact, Simpson};
 use rod::stencil::Stencil;
 use rod::stretch::{Segment, SlidingSegment, StretchLaw};
-use rod::validation::{BendingModel, Helix, helix_bending_energy, measured_order};
+use rod::validation::{BendingModel, Helix, measured_order, relative_bending_error};
 
 /// Applies `x ↦ R x + t` to the 3-vectors starting at the given offsets of `q`.
 fn rigid<const N: usize>(
@@ -117,10 +117,7 @@ fn every_term_is_invariant_under_rigid_motions() {
 /// Measures relative error of discrete vs continuous bending energy for increasing n.
 fn errors(model: BendingModel, helix: &Helix, span: f64, closed: bool, ns: &[usize]) -> Vec<f64> {
     ns.iter()
-        .map(|&n| {
-            let (d, c) = helix_bending_energy(model, helix, span, n, closed, 1e-6);
-            ((d - c) / c).abs()
-        })
+        .map(|&n| relative_bending_error(model, helix, span, n, closed))
         .collect()
 }
 

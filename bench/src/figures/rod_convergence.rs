@@ -4,7 +4,7 @@
 use crate::plot::{LineChart, Series};
 use crate::studies::cantilever::{Beam, elastica_tip, sweep};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
-use rod::validation::{BendingModel, Helix, helix_bending_energy, measured_order};
+use rod::validation::{BendingModel, Helix, measured_order, relative_bending_error};
 use std::f64::consts::TAU;
 
 /// Registry entry.
@@ -51,10 +51,8 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         "cantilever_tip",
     ]);
     for &n in &ns {
-        let err = |model, h: &Helix, span, closed| {
-            let (d, c) = helix_bending_energy(model, h, span, n, closed, 1e-4);
-            ((d - c) / c).abs()
-        };
+        let err =
+            |model, h: &Helix, span, closed| relative_bending_error(model, h, span, n, closed);
         let tip = sweep(&beam, n, &ramp)?
             .last()
             .expect("ten loads")

@@ -237,28 +237,19 @@ pub fn elastica_tip(alpha: f64) -> (f64, f64) {
 mod tests {
     use super::*;
 
+    /// Regression: with per-stencil SPD projection, Newton stalled (> 200 iterations) on a
+    /// stiff 512-segment beam; with the exact Hessian each load step converges quickly.
     #[test]
-    fn stiff_beam_converges_under_large_load() {
+    fn stiff_fine_beam_converges_along_a_load_ramp() {
         let beam = Beam {
             axial_stiffness: 4e4,
             ..Beam::default()
         };
         let alphas: Vec<f64> = (1..=10).map(|i| 0.1 * i as f64).collect();
-        let r = sweep(&beam, 512, &alphas);
-        match r {
-            Ok(p) => {
-                println!(
-                    "iterations {:?}",
-                    p.iter().map(|q| q.iterations).collect::<Vec<_>>()
-                );
-                assert!(p[9].deflection > 0.2)
-            }
-            Err(e) => panic!(
-                "{e}: {:?}",
-                e.report()
-                    .map(|r| (&r.residual_history, &r.step_lengths, &r.regularizations))
-            ),
-        }
+        let points = sweep(&beam, 512, &alphas).expect("every load step converges");
+        assert!(points.iter().all(|p| p.iterations < 60), "{points:?}");
+        let (elastica, _) = elastica_tip(1.0);
+        assert!((points[9].deflection - elastica).abs() < 1e-4 * elastica);
     }
 
     #[test]
