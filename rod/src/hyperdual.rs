@@ -23,6 +23,10 @@ pub trait Real:
     fn sqrt(self) -> Self;
     /// `(sin, cos)`.
     fn sin_cos(self) -> (Self, Self);
+    /// Four-quadrant `atan2(self, x)` (rad).
+    fn atan2(self, x: Self) -> Self;
+    /// The value part (for branch decisions that do not depend on derivatives).
+    fn value(self) -> f64;
 }
 
 impl Real for f64 {
@@ -34,6 +38,12 @@ impl Real for f64 {
     }
     fn sin_cos(self) -> (Self, Self) {
         f64::sin_cos(self)
+    }
+    fn atan2(self, x: Self) -> Self {
+        f64::atan2(self, x)
+    }
+    fn value(self) -> f64 {
+        self
     }
 }
 
@@ -136,6 +146,32 @@ impl Real for HyperDual {
         let (s, c) = self.v.sin_cos();
         (self.chain(s, c, -s), self.chain(c, -s, -c))
     }
+    fn atan2(self, x: Self) -> Self {
+        // f(y, x) = atan2(y, x): f_y = x/r², f_x = −y/r², f_yy = −2xy/r⁴, f_xx = 2xy/r⁴,
+        // f_xy = (y² − x²)/r⁴.
+        let (y, xv) = (self.v, x.v);
+        let r2 = y * y + xv * xv;
+        let (fy, fx) = (xv / r2, -y / r2);
+        let r4 = r2 * r2;
+        let (fyy, fxx, fxy) = (
+            -2.0 * xv * y / r4,
+            2.0 * xv * y / r4,
+            (y * y - xv * xv) / r4,
+        );
+        Self {
+            v: y.atan2(xv),
+            a: fy * self.a + fx * x.a,
+            b: fy * self.b + fx * x.b,
+            ab: fy * self.ab
+                + fx * x.ab
+                + fyy * self.a * self.b
+                + fxy * (self.a * x.b + x.a * self.b)
+                + fxx * x.a * x.b,
+        }
+    }
+    fn value(self) -> f64 {
+        self.v
+    }
 }
 
 /// A 3-vector over a [`Real`] scalar (just what generic stencils need).
@@ -235,5 +271,25 @@ mod tests {
         let fxy = x.cos() / r - x.cos() * y * y / r.powi(3) - x.sin() * x / r.powi(3)
             + 3.0 * x.sin() * x * y * y / r.powi(5);
         assert!((h[(0, 1)] - fxy).abs() < 1e-14 && h[(1, 0)] == h[(0, 1)]);
+    }
+
+    #[test]
+    fn atan2_derivatives_match_finite_differences() {
+        let f = |x: &[HyperDual; 2]| x[0].atan2(x[1]) * x[0];
+        for q in [
+            nalgebra::Vector2::new(0.3, -1.2),
+            nalgebra::Vector2::new(-0.7, 0.2),
+        ] {
+            let (_, g, h) = gradient_and_hessian(&q, f);
+            let fv = |y: f64, x: f64| y.atan2(x) * y;
+            let e = 1e-5;
+            let gy = (fv(q[0] + e, q[1]) - fv(q[0] - e, q[1])) / (2.0 * e);
+            let gx = (fv(q[0], q[1] + e) - fv(q[0], q[1] - e)) / (2.0 * e);
+            assert!((g[0] - gy).abs() < 1e-8 && (g[1] - gx).abs() < 1e-8);
+            let hxy = (fv(q[0] + e, q[1] + e) - fv(q[0] + e, q[1] - e) - fv(q[0] - e, q[1] + e)
+                + fv(q[0] - e, q[1] - e))
+                / (4.0 * e * e);
+            assert!((h[(0, 1)] - hxy).abs() < 1e-5, "{} vs {hxy}", h[(0, 1)]);
+        }
     }
 }

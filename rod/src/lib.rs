@@ -11,6 +11,7 @@
 //! | [`stretch`] | linear and two-phase stretch laws; fixed-length and sliding-coordinate segments | seed 002 Eq. 5; seed 000 §3.2 |
 //! | [`bending`] | angle bending with jamming; curvature-binormal bending | seed 000 Eq. 1, §4.1; seed 002 Eq. 6 (κ̄ = 0) |
 //! | [`material_bending`] | bending with rest curvature in the material frame, with twist DOFs | seed 002 Eq. 6; Bergou 2010 |
+//! | [`twist`] | twist with reference twist of transported frames | Bergou 2008/2010 |
 //! | [`contact`] | segment closest points; two-phase barrier contact with Simpson quadrature | seed 002 Eq. 7 |
 //! | [`hyperdual`] | exact second derivatives by forward differentiation (used where closed forms are impractical) | Fike & Alonso 2011 |
 //! | [`spd`] | projection of small symmetric Hessians onto the PSD cone | — |
@@ -29,6 +30,7 @@ pub mod material_bending;
 pub mod spd;
 pub mod stencil;
 pub mod stretch;
+pub mod twist;
 pub mod validation;
 
 pub use stencil::{Evaluation, Stencil};

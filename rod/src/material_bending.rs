@@ -39,6 +39,29 @@ pub struct MaterialBending {
     pub reference: (Frame, Frame),
 }
 
+/// The reference frame `frame` parallel-transported onto `edge`, rotated by the twist angle
+/// `theta`: returns `(t, m₁, m₂)`. Generic over [`Real`] so the same code yields exact
+/// derivatives; Rodrigues form of [`crate::geometry::parallel_transport`].
+pub(crate) fn transported_material_frame<T: Real>(
+    edge: &Vec3<T>,
+    frame: &Frame,
+    theta: T,
+) -> (Vec3<T>, Vec3<T>, Vec3<T>) {
+    let t = edge.scale(T::cst(1.0) / edge.norm());
+    let d1 = transport(&Vec3::cst(&frame.d1), &Vec3::cst(&frame.t), &t);
+    let d2 = t.cross(&d1);
+    let (s, c) = theta.sin_cos();
+    (t, d1.scale(c) + d2.scale(s), d2.scale(c) - d1.scale(s))
+}
+
+/// Parallel transport of `v` from unit tangent `t0` to unit tangent `t1`:
+/// `c v + b × v + (b·v) b / (1 + c)` with `b = t0 × t1`, `c = t0·t1`.
+pub(crate) fn transport<T: Real>(v: &Vec3<T>, t0: &Vec3<T>, t1: &Vec3<T>) -> Vec3<T> {
+    let b = t0.cross(t1);
+    let c = t0.dot(t1);
+    v.scale(c) + b.cross(v) + b.scale(b.dot(v) / (T::cst(1.0) + c))
+}
+
 impl MaterialBending {
     fn weight(&self) -> f64 {
         self.stiffness / (self.rest_lengths.0 + self.rest_lengths.1)
@@ -50,20 +73,8 @@ impl MaterialBending {
     fn energy_generic<T: Real>(&self, q: &[T; 11]) -> T {
         let x = |k: usize| Vec3([q[3 * k], q[3 * k + 1], q[3 * k + 2]]);
         let (e, f) = (x(1) - x(0), x(2) - x(1));
-        let material = |edge: &Vec3<T>, frame: &Frame, theta: T| {
-            let t = edge.scale(T::cst(1.0) / edge.norm());
-            let t0 = Vec3::cst(&frame.t);
-            let d0 = Vec3::cst(&frame.d1);
-            let b = t0.cross(&t);
-            let c = t0.dot(&t);
-            // P d₀ = c d₀ + b × d₀ + (b·d₀) b / (1 + c)
-            let d1 = d0.scale(c) + b.cross(&d0) + b.scale(b.dot(&d0) / (T::cst(1.0) + c));
-            let d2 = t.cross(&d1);
-            let (s, co) = theta.sin_cos();
-            (d1.scale(co) + d2.scale(s), d2.scale(co) - d1.scale(s))
-        };
-        let (m1e, m2e) = material(&e, &self.reference.0, q[9]);
-        let (m1f, m2f) = material(&f, &self.reference.1, q[10]);
+        let (_, m1e, m2e) = transported_material_frame(&e, &self.reference.0, q[9]);
+        let (_, m1f, m2f) = transported_material_frame(&f, &self.reference.1, q[10]);
         let kb = e
             .cross(&f)
             .scale(T::cst(2.0) / (e.norm() * f.norm() + e.dot(&f)));

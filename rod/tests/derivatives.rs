@@ -145,3 +145,33 @@ proptest! {
         assert_stencil_derivatives(&bend, &q, L);
     }
 }
+
+proptest! {
+    #![proptest_config(config(256))]
+
+    /// Twist with transported reference frames and a base reference twist.
+    #[test]
+    fn twist_with_reference_twist(
+        x1 in v3(L), a in v3(1.0), b in v3(1.0), hint_e in v3(1.0), hint_f in v3(1.0),
+        la in 0.3*L..2.0*L, lb in 0.3*L..2.0*L, th_e in -3.0..3.0f64, th_f in -3.0..3.0f64,
+        rest in -1.0..1.0f64, reference_twist in -7.0..7.0f64,
+    ) {
+        prop_assume!(a.norm() > 0.1 && b.norm() > 0.1);
+        let (x0, x2) = (x1 - a.normalize() * la, x1 + b.normalize() * lb);
+        prop_assume!(rod::geometry::turning_angle(&(x1 - x0), &(x2 - x1)) < 2.5);
+        let fe = rod::geometry::Frame::new(&(x1 - x0), &hint_e);
+        let ff = rod::geometry::Frame::new(&(x2 - x1), &hint_f);
+        prop_assume!(fe.is_some() && ff.is_some());
+        let twist = rod::twist::Twist {
+            stiffness: 1e-6,
+            rest_lengths: (la, lb),
+            rest_twist: rest,
+            reference: (fe.unwrap(), ff.unwrap()),
+            reference_twist,
+        };
+        let q = pack::<11>(&[x0.as_slice(), x1.as_slice(), x2.as_slice(), &[th_e, th_f]]);
+        // At the base configuration the reference twist is the stored one.
+        prop_assert!((twist.twist(&q) - (th_f - th_e + reference_twist)).abs() < 1e-12);
+        assert_stencil_derivatives(&twist, &q, L);
+    }
+}
