@@ -11,4 +11,19 @@
 //!
 //! The yarn energies come from the `rod` crate; Newton and sparse assembly from `solver`.
 //!
-//! Status: not yet implemented (tracked by the `sim-periodic` issue).
+//! | module | contents |
+//! |---|---|
+//! | [`tile`] | the periodic tile model (vertices, periodic edges, rest shape, reference frames) |
+//! | [`pyp`] | `.pyp` read/write with located errors |
+//! | [`madypg`] | displacement database layout (`axes.txt` + `data.npy`) |
+//! | [`coarse`] | coarse in-plane deformation from seed 004 strains or uniaxial (s, c) |
+//! | [`periodic`] | the tile energy under a coarse deformation, constraints, equilibrium, stress |
+//!
+//! Status: tiles, I/O and in-plane equilibrium are implemented; bending deformations (II),
+//! the database generator, curves, the pattern library and the CLI are not yet.
+
+pub mod coarse;
+pub mod madypg;
+pub mod periodic;
+pub mod pyp;
+pub mod tile;

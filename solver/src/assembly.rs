@@ -400,8 +400,24 @@ pub fn eval_rod_stencil<const N: usize>(
     grad: &mut [f64],
     hess: Option<&mut [f64]>,
 ) -> f64 {
+    eval_rod_stencil_offset(stencil, dofs, &[0.0; N], x, grad, hess)
+}
+
+/// Like [`eval_rod_stencil`] with an affine part: the stencil sees `q = x[dofs] + offset`.
+/// Used when the DOFs are fluctuations about a prescribed map (periodic tiles: positions
+/// `F X + ũ` with `ũ` the DOFs and `F X` the offset); `∂q/∂x = I`, so the stencil's gradient
+/// and Hessian are the problem's.
+pub fn eval_rod_stencil_offset<const N: usize>(
+    stencil: &impl rod::Stencil<N>,
+    dofs: &[usize],
+    offset: &[f64],
+    x: &[f64],
+    grad: &mut [f64],
+    hess: Option<&mut [f64]>,
+) -> f64 {
     debug_assert_eq!(dofs.len(), N);
-    let q = nalgebra::SVector::<f64, N>::from_fn(|i, _| x[dofs[i]]);
+    debug_assert_eq!(offset.len(), N);
+    let q = nalgebra::SVector::<f64, N>::from_fn(|i, _| x[dofs[i]] + offset[i]);
     let e = stencil.eval(&q);
     grad.copy_from_slice(e.gradient.as_slice());
     if let Some(h) = hess {

@@ -1,0 +1,579 @@
+//! The displacement database ΔQ(sx, sa, sy) of a tile (seed 004 §3), as stored on disk.
+//!
+//! A database is a directory with two files:
+//!
+//! - `axes.txt`: three lines, the sample values of `sx`, `sa` and `sy` (in that order),
+//!   whitespace-separated, strictly increasing (not necessarily uniform), 1 to
+//!   [`MAX_SAMPLES`] values each. The deformation parameters are unitless.
+//! - `data.npy`: a NumPy `.npy` array of little-endian `f32`, shape `(R, 4)` with
+//!   `R = n · |SX| · |SA| · |SY|`; each row is `(Δx, Δy, Δz, Δθ)`: the displacement (m) and
+//!   twist change (rad) of one tile vertex at one sample. Row index
+//!   `isx + |SX| · (isa + |SA| · (isy + |SY| · vertex))` ([`Database::index`]).
+//!
+//! The writer produces `.npy` format version 1.0 with the header padded to a multiple of 64
+//! bytes; the reader accepts versions 1.0 and 2.0. Errors name the file and, for `axes.txt`,
+//! the 1-based line.
+
+use std::path::{Path, PathBuf};
+
+/// Largest number of samples per axis.
+pub const MAX_SAMPLES: usize = 32;
+
+/// Names of the three axes, in storage order.
+pub const AXIS_NAMES: [&str; 3] = ["sx", "sa", "sy"];
+
+/// Name of the axes file in a database directory.
+pub const AXES_FILE: &str = "axes.txt";
+
+/// Name of the data file in a database directory.
+pub const DATA_FILE: &str = "data.npy";
+
+const NPY_MAGIC: &[u8] = b"\x93NUMPY";
+
+/// A displacement database ΔQ(sx, sa, sy) of a tile with `n_vertices` vertices.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Database {
+    /// Sample values (unitless) of `sx`, `sa`, `sy`: strictly increasing, finite, 1 to
+    /// [`MAX_SAMPLES`] each.
+    pub axes: [Vec<f64>; 3],
+    /// Number of tile vertices `n`.
+    pub n_vertices: usize,
+    /// Rows `(Δx, Δy, Δz, Δθ)`: vertex displacement (m) and twist change (rad), in the
+    /// order of [`Database::index`]; `n · |SX| · |SA| · |SY|` rows.
+    pub data: Vec<[f32; 4]>,
+}
+
+/// Why an axis is invalid.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum AxisProblem {
+    /// No samples.
+    #[error("expected 1 to {MAX_SAMPLES} sample values of {axis}, found none")]
+    Empty {
+        /// Axis name.
+        axis: &'static str,
+    },
+    /// More than [`MAX_SAMPLES`] samples.
+    #[error("expected at most {MAX_SAMPLES} sample values of {axis}, found {found}")]
+    TooMany {
+        /// Axis name.
+        axis: &'static str,
+        /// Number of samples found.
+        found: usize,
+    },
+    /// A token is not a number.
+    #[error("expected a number as sample value of {axis}, found {token:?}")]
+    NotANumber {
+        /// Axis name.
+        axis: &'static str,
+        /// The token.
+        token: String,
+    },
+    /// A sample is NaN or infinite.
+    #[error("expected finite sample values of {axis}, found {value} at position {index}")]
+    NonFinite {
+        /// Axis name.
+        axis: &'static str,
+        /// 0-based position on the axis.
+        index: usize,
+        /// The value.
+        value: f64,
+    },
+    /// Samples are not strictly increasing.
+    #[error(
+        "expected strictly increasing sample values of {axis}, found {value} after {previous} at position {index}"
+    )]
+    NotIncreasing {
+        /// Axis name.
+        axis: &'static str,
+        /// 0-based position on the axis of the offending value.
+        index: usize,
+        /// The preceding value.
+        previous: f64,
+        /// The offending value.
+        value: f64,
+    },
+}
+
+/// Why a `data.npy` file is not a valid database array.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum NpyProblem {
+    /// The file does not start with `\x93NUMPY`.
+    #[error("expected the .npy magic string \\x93NUMPY at the start of the file")]
+    BadMagic,
+    /// A format version other than 1.0 or 2.0.
+    #[error("expected .npy format version 1.0 or 2.0, found {major}.{minor}")]
+    UnsupportedVersion {
+        /// Major version.
+        major: u8,
+        /// Minor version.
+        minor: u8,
+    },
+    /// The file ends inside the header.
+    #[error("expected a header of {expected} bytes, file ends after {found}")]
+    TruncatedHeader {
+        /// Bytes expected (preamble + header).
+        expected: usize,
+        /// Bytes in the file.
+        found: usize,
+    },
+    /// The header is not a dictionary literal with the expected keys.
+    #[error(
+        "expected a header dictionary {{'descr': ..., 'fortran_order': ..., 'shape': ...}}: {0}"
+    )]
+    BadHeader(String),
+    /// The element type is not little-endian `f32`.
+    #[error("expected dtype '<f4' (little-endian float32), found {found:?}")]
+    WrongDtype {
+        /// The `descr` found.
+        found: String,
+    },
+    /// The array is stored in Fortran (column-major) order.
+    #[error("expected 'fortran_order': False (row-major data), found True")]
+    FortranOrder,
+    /// The shape is not `(R, 4)` with `R ≥ 1`.
+    #[error("expected shape (R, 4) with R ≥ 1 rows of (Δx, Δy, Δz, Δθ), found {found:?}")]
+    WrongShape {
+        /// The shape found.
+        found: Vec<usize>,
+    },
+    /// The row count is not a multiple of the number of samples per vertex.
+    #[error(
+        "expected a row count divisible by |SX|·|SA|·|SY| = {per_vertex} (from {AXES_FILE}), found {rows}"
+    )]
+    RowsNotDivisible {
+        /// Rows in the file.
+        rows: usize,
+        /// `|SX| · |SA| · |SY|`.
+        per_vertex: usize,
+    },
+    /// The data section has the wrong size.
+    #[error("expected {expected} bytes of data for shape ({rows}, 4), found {found}")]
+    DataLength {
+        /// Rows of the shape.
+        rows: usize,
+        /// Bytes expected (`16 · rows`).
+        expected: usize,
+        /// Bytes found after the header.
+        found: usize,
+    },
+}
+
+/// Errors of reading, writing or validating a [`Database`].
+#[derive(Debug, thiserror::Error)]
+pub enum DatabaseError {
+    /// A file or directory could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// `axes.txt` does not have exactly three lines of samples.
+    #[error("{}:{line}: expected 3 lines of sample values (sx, sa, sy), found {found}", path.display())]
+    AxesLineCount {
+        /// The file.
+        path: PathBuf,
+        /// The line of the first extra line, or the last line when lines are missing.
+        line: usize,
+        /// Number of lines found (not counting trailing blank lines beyond the third).
+        found: usize,
+    },
+    /// An axis in `axes.txt` is invalid.
+    #[error("{}:{line}: {problem}", path.display())]
+    Axis {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        problem: AxisProblem,
+    },
+    /// `data.npy` is invalid.
+    #[error("{}: {problem}", path.display())]
+    Npy {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        problem: NpyProblem,
+    },
+    /// An in-memory database is inconsistent (checked before writing).
+    #[error("invalid database: {0}")]
+    InvalidAxis(AxisProblem),
+    /// An in-memory database has the wrong number of rows (checked before writing).
+    #[error("invalid database: expected n · |SX| · |SA| · |SY| = {expected} rows, found {found}")]
+    DataLength {
+        /// Rows expected.
+        expected: usize,
+        /// Rows found.
+        found: usize,
+    },
+}
+
+impl Database {
+    /// Number of samples per vertex, `|SX| · |SA| · |SY|`.
+    pub fn samples_per_vertex(&self) -> usize {
+        self.axes.iter().map(Vec::len).product()
+    }
+
+    /// Row index of (vertex, isx, isa, isy): `isx + |SX| · (isa + |SA| · (isy + |SY| · vertex))`.
+    /// No bounds check; see [`Database::get`].
+    pub fn index(&self, vertex: usize, isx: usize, isa: usize, isy: usize) -> usize {
+        let [sx, sa, sy] = [0, 1, 2].map(|k| self.axes[k].len());
+        isx + sx * (isa + sa * (isy + sy * vertex))
+    }
+
+    /// The row `(Δx, Δy, Δz, Δθ)` (m, m, m, rad) of vertex `vertex` at sample
+    /// `(sx[isx], sa[isa], sy[isy])`; `None` if an index is out of range.
+    pub fn get(&self, vertex: usize, isx: usize, isa: usize, isy: usize) -> Option<[f32; 4]> {
+        let in_range = vertex < self.n_vertices
+            && isx < self.axes[0].len()
+            && isa < self.axes[1].len()
+            && isy < self.axes[2].len();
+        if !in_range {
+            return None;
+        }
+        self.data.get(self.index(vertex, isx, isa, isy)).copied()
+    }
+
+    /// Checks the axes (strictly increasing, finite, 1 to [`MAX_SAMPLES`] values) and the
+    /// number of rows.
+    pub fn validate(&self) -> Result<(), DatabaseError> {
+        for (axis, values) in AXIS_NAMES.into_iter().zip(&self.axes) {
+            check_axis(axis, values).map_err(DatabaseError::InvalidAxis)?;
+        }
+        let expected = self.n_vertices.checked_mul(self.samples_per_vertex());
+        if expected != Some(self.data.len()) {
+            return Err(DatabaseError::DataLength {
+                expected: expected.unwrap_or(usize::MAX),
+                found: self.data.len(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Writes `dir/axes.txt` and `dir/data.npy` (creating `dir`), after validating.
+    pub fn write(&self, dir: impl AsRef<Path>) -> Result<(), DatabaseError> {
+        self.validate()?;
+        let dir = dir.as_ref();
+        std::fs::create_dir_all(dir).map_err(|source| io_error(dir, source))?;
+
+        let mut axes = String::new();
+        for values in &self.axes {
+            let line: Vec<String> = values.iter().map(f64::to_string).collect();
+            axes.push_str(&line.join(" "));
+            axes.push('\n');
+        }
+        let path = dir.join(AXES_FILE);
+        std::fs::write(&path, axes).map_err(|source| io_error(&path, source))?;
+
+        let path = dir.join(DATA_FILE);
+        let bytes = npy_bytes(&self.data);
+        std::fs::write(&path, bytes).map_err(|source| io_error(&path, source))
+    }
+
+    /// Reads and validates `dir/axes.txt` and `dir/data.npy`.
+    pub fn read(dir: impl AsRef<Path>) -> Result<Database, DatabaseError> {
+        let dir = dir.as_ref();
+        let path = dir.join(AXES_FILE);
+        let text = std::fs::read_to_string(&path).map_err(|source| io_error(&path, source))?;
+        let axes = parse_axes(&text, &path)?;
+
+        let path = dir.join(DATA_FILE);
+        let bytes = std::fs::read(&path).map_err(|source| io_error(&path, source))?;
+        let npy_error = |problem| DatabaseError::Npy {
+            path: path.clone(),
+            problem,
+        };
+        let (rows, data) = parse_npy(&bytes).map_err(npy_error)?;
+        let per_vertex: usize = axes.iter().map(Vec::len).product();
+        if rows % per_vertex != 0 {
+            return Err(npy_error(NpyProblem::RowsNotDivisible { rows, per_vertex }));
+        }
+        Ok(Database {
+            axes,
+            n_vertices: rows / per_vertex,
+            data,
+        })
+    }
+}
+
+fn io_error(path: &Path, source: std::io::Error) -> DatabaseError {
+    DatabaseError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+fn check_axis(axis: &'static str, values: &[f64]) -> Result<(), AxisProblem> {
+    if values.is_empty() {
+        return Err(AxisProblem::Empty { axis });
+    }
+    if values.len() > MAX_SAMPLES {
+        return Err(AxisProblem::TooMany {
+            axis,
+            found: values.len(),
+        });
+    }
+    for (index, &value) in values.iter().enumerate() {
+        if !value.is_finite() {
+            return Err(AxisProblem::NonFinite { axis, index, value });
+        }
+        if index > 0 && value <= values[index - 1] {
+            let previous = values[index - 1];
+            return Err(AxisProblem::NotIncreasing {
+                axis,
+                index,
+                previous,
+                value,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Parses `axes.txt`: three lines of samples; trailing blank lines are allowed.
+fn parse_axes(text: &str, path: &Path) -> Result<[Vec<f64>; 3], DatabaseError> {
+    let mut lines: Vec<&str> = text.lines().collect();
+    while lines.len() > 3 && lines.last().is_some_and(|l| l.trim().is_empty()) {
+        lines.pop();
+    }
+    if lines.len() != 3 {
+        return Err(DatabaseError::AxesLineCount {
+            path: path.to_path_buf(),
+            line: lines.len().clamp(1, 4),
+            found: lines.len(),
+        });
+    }
+    let mut axes: [Vec<f64>; 3] = Default::default();
+    for (k, (line, axis)) in lines.iter().zip(AXIS_NAMES).enumerate() {
+        let located = |problem| DatabaseError::Axis {
+            path: path.to_path_buf(),
+            line: k + 1,
+            problem,
+        };
+        for token in line.split_whitespace() {
+            let value = token.parse::<f64>().map_err(|_| {
+                located(AxisProblem::NotANumber {
+                    axis,
+                    token: token.to_string(),
+                })
+            })?;
+            axes[k].push(value);
+        }
+        check_axis(axis, &axes[k]).map_err(located)?;
+    }
+    Ok(axes)
+}
+
+/// The `.npy` (version 1.0) bytes of an `(R, 4)` little-endian `f32` array.
+fn npy_bytes(rows: &[[f32; 4]]) -> Vec<u8> {
+    let mut header = format!(
+        "{{'descr': '<f4', 'fortran_order': False, 'shape': ({}, 4), }}",
+        rows.len()
+    );
+    // Magic (6) + version (2) + header length (2) + header + '\n': a multiple of 64.
+    let unpadded = NPY_MAGIC.len() + 4 + header.len() + 1;
+    header.push_str(&" ".repeat(unpadded.next_multiple_of(64) - unpadded));
+    header.push('\n');
+    let header_len = u16::try_from(header.len()).expect("the header is a few hundred bytes");
+
+    let mut bytes = Vec::with_capacity(10 + header.len() + 16 * rows.len());
+    bytes.extend_from_slice(NPY_MAGIC);
+    bytes.extend_from_slice(&[1, 0]);
+    bytes.extend_from_slice(&header_len.to_le_bytes());
+    bytes.extend_from_slice(header.as_bytes());
+    for row in rows {
+        for x in row {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    bytes
+}
+
+/// Parses an `.npy` file holding an `(R, 4)` little-endian `f32` array: `(R, rows)`.
+fn parse_npy(bytes: &[u8]) -> Result<(usize, Vec<[f32; 4]>), NpyProblem> {
+    if !bytes.starts_with(NPY_MAGIC) {
+        return Err(NpyProblem::BadMagic);
+    }
+    let truncated = |expected| NpyProblem::TruncatedHeader {
+        expected,
+        found: bytes.len(),
+    };
+    let (major, minor) = match bytes.get(6..8) {
+        Some(&[major, minor]) => (major, minor),
+        _ => return Err(truncated(10)),
+    };
+    let (header_start, header_len) = match (major, minor) {
+        (1, 0) => match bytes.get(8..10) {
+            Some(b) => (10, usize::from(u16::from_le_bytes([b[0], b[1]]))),
+            None => return Err(truncated(10)),
+        },
+        (2, 0) => match bytes.get(8..12) {
+            Some(b) => (12, u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize),
+            None => return Err(truncated(12)),
+        },
+        _ => return Err(NpyProblem::UnsupportedVersion { major, minor }),
+    };
+    let data_start = header_start + header_len;
+    let Some(header) = bytes.get(header_start..data_start) else {
+        return Err(truncated(data_start));
+    };
+    let header = std::str::from_utf8(header)
+        .map_err(|_| NpyProblem::BadHeader("the header is not ASCII text".into()))?;
+    let header = parse_header(header)?;
+    if header.descr != "<f4" {
+        return Err(NpyProblem::WrongDtype {
+            found: header.descr,
+        });
+    }
+    if header.fortran_order {
+        return Err(NpyProblem::FortranOrder);
+    }
+    let rows = match header.shape[..] {
+        [rows, 4] if rows >= 1 => rows,
+        _ => {
+            return Err(NpyProblem::WrongShape {
+                found: header.shape,
+            });
+        }
+    };
+    let payload = &bytes[data_start..];
+    let expected = rows.saturating_mul(16);
+    if payload.len() != expected {
+        return Err(NpyProblem::DataLength {
+            rows,
+            expected,
+            found: payload.len(),
+        });
+    }
+    let data = payload
+        .chunks_exact(16)
+        .map(|row| {
+            let f = |k: usize| f32::from_le_bytes([row[k], row[k + 1], row[k + 2], row[k + 3]]);
+            [f(0), f(4), f(8), f(12)]
+        })
+        .collect();
+    Ok((rows, data))
+}
+
+/// The three entries of an `.npy` header dictionary.
+struct NpyHeader {
+    descr: String,
+    fortran_order: bool,
+    shape: Vec<usize>,
+}
+
+/// Parses the Python dictionary literal of an `.npy` header (string, boolean and integer
+/// tuple values only, as written by NumPy).
+fn parse_header(text: &str) -> Result<NpyHeader, NpyProblem> {
+    let bad = |what: &str| NpyProblem::BadHeader(what.to_string());
+    let inner = text
+        .trim()
+        .strip_prefix('{')
+        .and_then(|t| t.strip_suffix('}'))
+        .ok_or_else(|| bad("expected a dictionary literal {...}"))?;
+    let mut cur = Cursor { rest: inner };
+    let (mut descr, mut fortran_order, mut shape) = (None, None, None);
+    loop {
+        cur.skip_ws();
+        if cur.rest.is_empty() {
+            break;
+        }
+        let key = cur.string().ok_or_else(|| bad("expected a quoted key"))?;
+        cur.skip_ws();
+        if !cur.eat(":") {
+            return Err(bad("expected ':' after a key"));
+        }
+        cur.skip_ws();
+        match key {
+            "descr" => {
+                descr = Some(
+                    cur.string()
+                        .ok_or_else(|| bad("expected a quoted 'descr'"))?,
+                )
+            }
+            "fortran_order" => {
+                fortran_order = Some(if cur.eat("True") {
+                    true
+                } else if cur.eat("False") {
+                    false
+                } else {
+                    return Err(bad("expected True or False for 'fortran_order'"));
+                })
+            }
+            "shape" => {
+                shape = Some(
+                    cur.tuple()
+                        .ok_or_else(|| bad("expected a tuple of integers for 'shape'"))?,
+                )
+            }
+            _ => return Err(NpyProblem::BadHeader(format!("unexpected key {key:?}"))),
+        }
+        cur.skip_ws();
+        if !cur.eat(",") {
+            cur.skip_ws();
+            if !cur.rest.is_empty() {
+                return Err(bad("expected ',' between entries"));
+            }
+        }
+    }
+    match (descr, fortran_order, shape) {
+        (Some(descr), Some(fortran_order), Some(shape)) => Ok(NpyHeader {
+            descr: descr.to_string(),
+            fortran_order,
+            shape,
+        }),
+        _ => Err(bad(
+            "expected the keys 'descr', 'fortran_order' and 'shape'",
+        )),
+    }
+}
+
+/// A tiny scanner over the header text.
+struct Cursor<'a> {
+    rest: &'a str,
+}
+
+impl<'a> Cursor<'a> {
+    fn skip_ws(&mut self) {
+        self.rest = self.rest.trim_start();
+    }
+
+    /// Consumes `word` if the text starts with it.
+    fn eat(&mut self, word: &str) -> bool {
+        match self.rest.strip_prefix(word) {
+            Some(rest) => {
+                self.rest = rest;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// A string literal in single or double quotes (no escapes).
+    fn string(&mut self) -> Option<&'a str> {
+        let quote = self
+            .rest
+            .chars()
+            .next()
+            .filter(|&c| c == '\'' || c == '"')?;
+        let body = &self.rest[1..];
+        let end = body.find(quote)?;
+        self.rest = &body[end + 1..];
+        Some(&body[..end])
+    }
+
+    /// A tuple of non-negative integers: `()`, `(3,)`, `(3, 4)`.
+    fn tuple(&mut self) -> Option<Vec<usize>> {
+        let body = self.rest.strip_prefix('(')?;
+        let end = body.find(')')?;
+        self.rest = &body[end + 1..];
+        body[..end]
+            .split(',')
+            .map(str::trim)
+            .filter(|t| !t.is_empty())
+            .map(|t| t.parse().ok())
+            .collect()
+    }
+}
