@@ -220,6 +220,28 @@ impl<T: Real> Sub for Vec3<T> {
     }
 }
 
+/// An energy written once over any [`Real`] scalar: the blanket [`crate::Stencil`] impl
+/// evaluates it with `f64` for the energy and with hyper-duals for exact derivatives.
+pub trait GenericEnergy<const N: usize> {
+    /// The energy (J) at `q`.
+    fn energy_generic<T: Real>(&self, q: &[T; N]) -> T;
+}
+
+impl<const N: usize, S: GenericEnergy<N>> crate::Stencil<N> for S {
+    fn energy(&self, q: &nalgebra::SVector<f64, N>) -> f64 {
+        self.energy_generic(&std::array::from_fn(|k| q[k]))
+    }
+
+    fn eval(&self, q: &nalgebra::SVector<f64, N>) -> crate::Evaluation<N> {
+        let (energy, gradient, hessian) = gradient_and_hessian(q, |x| self.energy_generic(x));
+        crate::Evaluation {
+            energy,
+            gradient,
+            hessian,
+        }
+    }
+}
+
 /// Gradient and Hessian of `f` at `q` by hyper-dual evaluation, one pass per pair `i ≤ j`.
 pub fn gradient_and_hessian<const N: usize>(
     q: &nalgebra::SVector<f64, N>,

@@ -21,9 +21,8 @@
 //! The exact Hessian costs 66 energy evaluations per stencil; a closed form is future work if
 //! profiling shows it matters.
 
-use crate::geometry::{Frame, V3};
-use crate::hyperdual::{Real, Vec3, gradient_and_hessian};
-use crate::stencil::{Evaluation, Stencil};
+use crate::geometry::Frame;
+use crate::hyperdual::{GenericEnergy, Real, Vec3};
 use nalgebra::{SVector, Vector2};
 
 /// Seed 002 Eq. 6 bending with rest curvature; see the module doc.
@@ -67,10 +66,9 @@ impl MaterialBending {
         self.stiffness / (self.rest_lengths.0 + self.rest_lengths.1)
     }
 
-    /// The energy over any [`Real`] scalar: transport the stored reference frames onto the
-    /// current edges (Rodrigues form of [`crate::geometry::parallel_transport`]), rotate by
-    /// the twist angles, and evaluate Eq. 6.
-    fn energy_generic<T: Real>(&self, q: &[T; 11]) -> T {
+    /// Material curvature `(κ₁, κ₂)` over any [`Real`]: the stored reference frames
+    /// transported onto the current edges, rotated by the twist angles.
+    fn curvature_generic<T: Real>(&self, q: &[T; 11]) -> (T, T) {
         let x = |k: usize| Vec3([q[3 * k], q[3 * k + 1], q[3 * k + 2]]);
         let (e, f) = (x(1) - x(0), x(2) - x(1));
         let (_, m1e, m2e) = transported_material_frame(&e, &self.reference.0, q[9]);
@@ -78,46 +76,25 @@ impl MaterialBending {
         let kb = e
             .cross(&f)
             .scale(T::cst(2.0) / (e.norm() * f.norm() + e.dot(&f)));
-        let k1 = (m2e + m2f).dot(&kb) * T::cst(0.5) - T::cst(self.rest_curvature.x);
-        let k2 = -((m1e + m1f).dot(&kb) * T::cst(0.5)) - T::cst(self.rest_curvature.y);
-        (k1 * k1 + k2 * k2) * T::cst(self.weight())
+        (
+            (m2e + m2f).dot(&kb) * T::cst(0.5),
+            -((m1e + m1f).dot(&kb) * T::cst(0.5)),
+        )
     }
 
     /// Material curvature `(κ₁, κ₂)` at `q` (for diagnostics and rest-shape estimation).
     pub fn curvature(&self, q: &SVector<f64, 11>) -> Vector2<f64> {
-        let x0: V3 = q.fixed_rows::<3>(0).into();
-        let x1: V3 = q.fixed_rows::<3>(3).into();
-        let x2: V3 = q.fixed_rows::<3>(6).into();
-        let (e, f) = (x1 - x0, x2 - x1);
-        let fe = self
-            .reference
-            .0
-            .transported_to(&e)
-            .unwrap_or(self.reference.0);
-        let ff = self
-            .reference
-            .1
-            .transported_to(&f)
-            .unwrap_or(self.reference.1);
-        let (m1e, m2e) = fe.material(q[9]);
-        let (m1f, m2f) = ff.material(q[10]);
-        let kb = crate::geometry::curvature_binormal(&e, &f);
-        Vector2::new(0.5 * (m2e + m2f).dot(&kb), -0.5 * (m1e + m1f).dot(&kb))
+        let (k1, k2) = self.curvature_generic(&std::array::from_fn(|k| q[k]));
+        Vector2::new(k1, k2)
     }
 }
 
-impl Stencil<11> for MaterialBending {
-    fn energy(&self, q: &SVector<f64, 11>) -> f64 {
-        let x: [f64; 11] = std::array::from_fn(|k| q[k]);
-        self.energy_generic(&x)
-    }
-
-    fn eval(&self, q: &SVector<f64, 11>) -> Evaluation<11> {
-        let (energy, gradient, hessian) = gradient_and_hessian(q, |x| self.energy_generic(x));
-        Evaluation {
-            energy,
-            gradient,
-            hessian,
-        }
+impl GenericEnergy<11> for MaterialBending {
+    /// Eq. 6: `k_b / (L_a + L_b) · ‖κ − κ̄‖²`.
+    fn energy_generic<T: Real>(&self, q: &[T; 11]) -> T {
+        let (k1, k2) = self.curvature_generic(q);
+        let d1 = k1 - T::cst(self.rest_curvature.x);
+        let d2 = k2 - T::cst(self.rest_curvature.y);
+        (d1 * d1 + d2 * d2) * T::cst(self.weight())
     }
 }

@@ -14,9 +14,8 @@
 //! derivatives by hyper-dual differentiation.
 
 use crate::geometry::Frame;
-use crate::hyperdual::{Real, Vec3, gradient_and_hessian};
+use crate::hyperdual::{GenericEnergy, Real, Vec3};
 use crate::material_bending::{transport, transported_material_frame};
-use crate::stencil::{Evaluation, Stencil};
 use nalgebra::SVector;
 use std::f64::consts::TAU;
 
@@ -64,30 +63,16 @@ impl Twist {
         q[10] - q[9] + m_ref
     }
 
-    fn energy_generic<T: Real>(&self, q: &[T; 11]) -> T {
-        let m = self.twist_generic(q) - T::cst(self.rest_twist);
-        m * m * T::cst(self.stiffness / (self.rest_lengths.0 + self.rest_lengths.1))
-    }
-
     /// Current total twist `m = θᶠ − θᵉ + m_ref` (rad).
     pub fn twist(&self, q: &SVector<f64, 11>) -> f64 {
-        let x: [f64; 11] = std::array::from_fn(|k| q[k]);
-        self.twist_generic(&x)
+        self.twist_generic(&std::array::from_fn(|k| q[k]))
     }
 }
 
-impl Stencil<11> for Twist {
-    fn energy(&self, q: &SVector<f64, 11>) -> f64 {
-        let x: [f64; 11] = std::array::from_fn(|k| q[k]);
-        self.energy_generic(&x)
-    }
-
-    fn eval(&self, q: &SVector<f64, 11>) -> Evaluation<11> {
-        let (energy, gradient, hessian) = gradient_and_hessian(q, |x| self.energy_generic(x));
-        Evaluation {
-            energy,
-            gradient,
-            hessian,
-        }
+impl GenericEnergy<11> for Twist {
+    /// `k_t (m − m̄)² / (L_a + L_b)`.
+    fn energy_generic<T: Real>(&self, q: &[T; 11]) -> T {
+        let m = self.twist_generic(q) - T::cst(self.rest_twist);
+        m * m * T::cst(self.stiffness / (self.rest_lengths.0 + self.rest_lengths.1))
     }
 }

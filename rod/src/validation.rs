@@ -28,6 +28,17 @@ pub struct Helix {
 }
 
 impl Helix {
+    /// The circle used by the convergence test and figure: radius 1 cm.
+    pub const REFERENCE_CIRCLE: Helix = Helix {
+        radius: 0.01,
+        rise: 0.0,
+    };
+    /// The helix used by the convergence test and figure: radius 1 cm, rise 4 mm per radian.
+    pub const REFERENCE_HELIX: Helix = Helix {
+        radius: 0.01,
+        rise: 0.004,
+    };
+
     /// Curvature `a/(a² + b²)` (1/m).
     pub fn curvature(&self) -> f64 {
         self.radius / (self.radius.powi(2) + self.rise.powi(2))

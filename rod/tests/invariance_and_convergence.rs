@@ -124,14 +124,8 @@ fn errors(model: BendingModel, helix: &Helix, span: f64, closed: bool, ns: &[usi
 #[test]
 fn bending_of_a_circle_and_a_helix_converges_at_second_order() {
     let ns = [16, 32, 64, 128, 256];
-    let circle = Helix {
-        radius: 0.01,
-        rise: 0.0,
-    };
-    let helix = Helix {
-        radius: 0.01,
-        rise: 0.004,
-    };
+    let circle = Helix::REFERENCE_CIRCLE;
+    let helix = Helix::REFERENCE_HELIX;
     for model in [BendingModel::Binormal, BendingModel::Angle] {
         for (name, h, span, closed) in [
             ("circle", &circle, std::f64::consts::TAU, true),

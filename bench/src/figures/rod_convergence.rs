@@ -25,14 +25,8 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     } else {
         vec![8, 16, 32, 64, 128, 256, 512]
     };
-    let circle = Helix {
-        radius: 0.01,
-        rise: 0.0,
-    };
-    let helix = Helix {
-        radius: 0.01,
-        rise: 0.004,
-    };
+    let circle = Helix::REFERENCE_CIRCLE;
+    let helix = Helix::REFERENCE_HELIX;
     // Stiff in stretch (axial strain ≈ 6e-8 at α = 1), to compare with the inextensible
     // elastica; loads ramp up in steps of 0.1 (load continuation).
     let beam = Beam {
