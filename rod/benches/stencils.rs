@@ -99,6 +99,14 @@ fn stencils(c: &mut Criterion) {
     let mut q = mm(&[0.1, 0.2, 0.3, 1.2, 0.4, 0.1, 2.0, 1.1, 0.3]);
     q.extend([0.1, 0.2]);
     bench_stencil(c, "material-bending", &material, &q);
+    let twist = rod::twist::Twist {
+        stiffness: 4e-6,
+        rest_lengths: (1e-3, 1e-3),
+        rest_twist: 0.1,
+        reference: material.reference,
+        reference_twist: 0.05,
+    };
+    bench_stencil(c, "twist", &twist, &q);
     for intervals in [2, 4] {
         let contact = EdgeContact {
             phases: [
