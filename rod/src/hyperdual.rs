@@ -240,6 +240,35 @@ impl<const N: usize, S: GenericEnergy<N>> crate::Stencil<N> for S {
             hessian,
         }
     }
+
+    fn energy_and_gradient(
+        &self,
+        q: &nalgebra::SVector<f64, N>,
+    ) -> (f64, nalgebra::SVector<f64, N>) {
+        gradient(q, |x| self.energy_generic(x))
+    }
+}
+
+/// Gradient of `f` at `q` by dual evaluation, one pass per DOF (`N` passes instead of the
+/// `N (N + 1) / 2` of [`gradient_and_hessian`]).
+pub fn gradient<const N: usize>(
+    q: &nalgebra::SVector<f64, N>,
+    f: impl Fn(&[HyperDual; N]) -> HyperDual,
+) -> (f64, nalgebra::SVector<f64, N>) {
+    let mut g = nalgebra::SVector::<f64, N>::zeros();
+    let mut value = 0.0;
+    for i in 0..N {
+        let x: [HyperDual; N] = std::array::from_fn(|k| HyperDual {
+            v: q[k],
+            a: if k == i { 1.0 } else { 0.0 },
+            b: 0.0,
+            ab: 0.0,
+        });
+        let r = f(&x);
+        value = r.v;
+        g[i] = r.a;
+    }
+    (value, g)
 }
 
 /// Gradient and Hessian of `f` at `q` by hyper-dual evaluation, one pass per pair `i ≤ j`.

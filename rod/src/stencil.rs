@@ -18,6 +18,14 @@ pub trait Stencil<const N: usize> {
     /// intermediate quantities are computed once. The Hessian is exact (not SPD-projected);
     /// see [`crate::spd`] for the projection Newton solvers use.
     fn eval(&self, q: &SVector<f64, N>) -> Evaluation<N>;
+
+    /// Energy (J) and gradient without the Hessian (gradient-only evaluations of solvers).
+    /// The default takes them from [`Stencil::eval`]; terms whose Hessian is expensive
+    /// (the hyper-dual ones) override it.
+    fn energy_and_gradient(&self, q: &SVector<f64, N>) -> (f64, SVector<f64, N>) {
+        let e = self.eval(q);
+        (e.energy, e.gradient)
+    }
 }
 
 /// Energy, gradient and Hessian of a stencil at one configuration.

@@ -17,13 +17,20 @@
 //! | [`pyp`] | `.pyp` read/write with located errors |
 //! | [`madypg`] | displacement database layout (`axes.txt` + `data.npy`) |
 //! | [`coarse`] | coarse in-plane deformation from seed 004 strains or uniaxial (s, c) |
+//! | [`config`] | TOML configuration of the `sim-periodic` command line |
+//! | [`curves`] | uniaxial curves {s, c, σ_s} along weft / bias / warp with a root-find for zero orthogonal stress |
+//! | [`database`] | displacement database generation: relaxed reference, continuation over the strain grid, pullback (Eq. 18), resumable checkpoints |
 //! | [`periodic`] | the tile energy under a coarse deformation, constraints, equilibrium, stress |
+//! | [`patterns`] | procedural pattern library: tile builder from yarn polylines, knit and weave guesses, relaxation |
 //!
-//! Status: tiles, I/O and in-plane equilibrium are implemented; bending deformations (II),
-//! the database generator, curves, the pattern library and the CLI are not yet.
+//! Status: bending deformations (II) are not implemented yet (in-plane only).
 
 pub mod coarse;
+pub mod config;
+pub mod curves;
+pub mod database;
 pub mod madypg;
+pub mod patterns;
 pub mod periodic;
 pub mod pyp;
 pub mod tile;

@@ -30,8 +30,8 @@ use rod::material_bending::MaterialBending;
 use rod::stretch::{Segment, StretchLaw};
 use rod::twist::Twist;
 use solver::{
-    LinearConstraints, NewtonSettings, Problem, SolveError, eval_rod_stencil_offset,
-    minimize_constrained,
+    LinearConstraints, NewtonSettings, Problem, SolveError, eval_rod_stencil_energy_offset,
+    eval_rod_stencil_offset, minimize_constrained,
 };
 
 /// Yarn material parameters (SI). The defaults are illustrative values for a ~1 mm yarn, not
@@ -322,7 +322,21 @@ impl<'t> PeriodicTile<'t> {
             }
             rows += 1;
         }
-        Ok(LinearConstraints::new(4 * n, &triplets, &vec![0.0; rows])?)
+        let mut rhs = vec![0.0; rows];
+        // No twist drift: the mean twist angle of every loop stays at the tile's.
+        let mut twist_of_edge = vec![0.0; n];
+        for v in 0..n {
+            twist_of_edge[self.topology.outgoing(v)] = self.tile.twists[v];
+        }
+        for lp in self.topology.loops() {
+            let w = 1.0 / lp.len() as f64;
+            for &e in &lp {
+                triplets.push((rows, 3 * n + e, w));
+            }
+            rhs.push(w * lp.iter().map(|&e| twist_of_edge[e]).sum::<f64>());
+            rows += 1;
+        }
+        Ok(LinearConstraints::new(4 * n, &triplets, &rhs)?)
     }
 
     /// `∂Ψ/∂F₂` (Pa·m = N/m) gathered from the stencil forces (seed 002 Eq. 10): with positions
@@ -469,6 +483,15 @@ impl Problem for PeriodicTile<'_> {
             Term::Bend(s) => eval_rod_stencil_offset(s, &e.dofs, &e.offset, x, grad, hess),
             Term::Twist(s) => eval_rod_stencil_offset(s, &e.dofs, &e.offset, x, grad, hess),
             Term::Contact(s) => eval_rod_stencil_offset(s, &e.dofs, &e.offset, x, grad, hess),
+        }
+    }
+    fn stencil_energy(&self, k: usize, x: &[f64]) -> f64 {
+        let e = &self.entries[k];
+        match &e.term {
+            Term::Stretch(s) => eval_rod_stencil_energy_offset(s, &e.dofs, &e.offset, x),
+            Term::Bend(s) => eval_rod_stencil_energy_offset(s, &e.dofs, &e.offset, x),
+            Term::Twist(s) => eval_rod_stencil_energy_offset(s, &e.dofs, &e.offset, x),
+            Term::Contact(s) => eval_rod_stencil_energy_offset(s, &e.dofs, &e.offset, x),
         }
     }
 }

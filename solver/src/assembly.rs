@@ -57,6 +57,14 @@ pub trait Problem: Sync {
     /// requested, its local dense Hessian (column-major, `len²`, symmetric) into caller-owned
     /// buffers, which the caller has zeroed.
     fn eval_stencil(&self, k: usize, x: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64;
+
+    /// Energy of stencil `k` at `x` alone (line searches). The default calls
+    /// [`Problem::eval_stencil`] with a scratch gradient; override it when the energy is much
+    /// cheaper than its gradient (see [`eval_rod_stencil_energy_offset`]).
+    fn stencil_energy(&self, k: usize, x: &[f64]) -> f64 {
+        let mut grad = vec![0.0; self.stencil_dofs(k).len()];
+        self.eval_stencil(k, x, &mut grad, None)
+    }
 }
 
 /// Marks a local Hessian entry that is not stored (strict upper triangle or touches a fixed DOF).
@@ -281,7 +289,9 @@ impl Assembler {
         x: &[f64],
     ) -> Result<f64, SolveError> {
         self.check_inputs(problem, x)?;
-        self.evaluate(problem, x, None);
+        self.slots.par_iter_mut().enumerate().for_each(|(k, slot)| {
+            slot.energy = problem.stencil_energy(k, x);
+        });
         self.sum_energies();
         Ok(self.energy)
     }
@@ -418,10 +428,32 @@ pub fn eval_rod_stencil_offset<const N: usize>(
     debug_assert_eq!(dofs.len(), N);
     debug_assert_eq!(offset.len(), N);
     let q = nalgebra::SVector::<f64, N>::from_fn(|i, _| x[dofs[i]] + offset[i]);
-    let e = stencil.eval(&q);
-    grad.copy_from_slice(e.gradient.as_slice());
-    if let Some(h) = hess {
-        h.copy_from_slice(e.hessian.as_slice());
+    match hess {
+        Some(h) => {
+            let e = stencil.eval(&q);
+            grad.copy_from_slice(e.gradient.as_slice());
+            h.copy_from_slice(e.hessian.as_slice());
+            e.energy
+        }
+        None => {
+            let (energy, gradient) = stencil.energy_and_gradient(&q);
+            grad.copy_from_slice(gradient.as_slice());
+            energy
+        }
     }
-    e.energy
+}
+
+/// The energy alone of [`eval_rod_stencil_offset`]'s stencil, for
+/// [`Problem::stencil_energy`].
+pub fn eval_rod_stencil_energy_offset<const N: usize>(
+    stencil: &impl rod::Stencil<N>,
+    dofs: &[usize],
+    offset: &[f64],
+    x: &[f64],
+) -> f64 {
+    debug_assert_eq!(dofs.len(), N);
+    debug_assert_eq!(offset.len(), N);
+    stencil.energy(&nalgebra::SVector::<f64, N>::from_fn(|i, _| {
+        x[dofs[i]] + offset[i]
+    }))
 }

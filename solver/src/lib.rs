@@ -69,7 +69,10 @@ mod linalg;
 pub mod newton;
 mod pattern;
 
-pub use assembly::{Assembled, Assembler, Problem, eval_rod_stencil, eval_rod_stencil_offset};
+pub use assembly::{
+    Assembled, Assembler, Problem, eval_rod_stencil, eval_rod_stencil_energy_offset,
+    eval_rod_stencil_offset,
+};
 pub use constrained::{ConstrainedNewtonSolver, LinearConstraints, minimize_constrained};
 pub use error::SolveError;
 pub use newton::{NewtonReport, NewtonSettings, NewtonSolver, Termination, minimize};

@@ -1,0 +1,426 @@
+//! TOML configuration of the `sim-periodic` command line (`relax`, `curve`, `database`).
+//!
+//! One file describes the tile, the yarn model, the solver and what to compute; paths are
+//! relative to the config file. Unknown keys are errors (with line and column), so typos do not
+//! silently fall back to defaults. Every section but `tile`/`out` is optional.
+//!
+//! ```toml
+//! tile = "stockinette.pyp"      # a .pyp file
+//! out = "out/stockinette"       # output directory
+//! relax_period = true           # curve/database: relax the period to zero normal stress first
+//!
+//! [model]                       # defaults: YarnModel::default_for_radius(tile radius)
+//! k1 = 20.0                     # soft stretch stiffness (N)
+//! k2 = 200.0                    # stiff stretch stiffness (N)
+//! onset = 0.03                  # onset strain of the stiff phase
+//! bending = 5e-6                # k_b (N m²)
+//! twist = 4e-6                  # k_t (N m²); 0 disables twist
+//! contact_stiffness = [1e3, 1e6]      # soft / stiff barrier phase (J/m²)
+//! contact_radius = [1.0, 0.25]        # phase radii in units of the yarn radius
+//! simpson_intervals = 2         # contact quadrature intervals per edge (even)
+//!
+//! [solver]
+//! gradient_abs_tol = 1e-11      # J/m
+//! gradient_rel_tol = 1e-9
+//! max_iterations = 200
+//!
+//! [curve]                       # `curve`: uniaxial curves with zero orthogonal stress
+//! directions = ["weft", "bias", "warp"]
+//! max_stretch = 0.5
+//! points = 11
+//!
+//! [database]                    # `database`: ΔQ over a strain grid
+//! sx = { min = -0.2, max = 1.0, n = 9 }   # or an explicit list: sx = [-0.2, 0.0, 0.5]
+//! sa = { min = -0.7, max = 0.7, n = 9 }
+//! sy = { min = -0.2, max = 1.0, n = 9 }
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::curves::Direction;
+use crate::database::uniform_axis;
+use crate::periodic::{EquilibriumSettings, YarnModel};
+use rod::contact::Simpson;
+use rod::stretch::StretchLaw;
+
+/// A parsed config file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// The tile (`.pyp`), relative to the config file.
+    pub tile: PathBuf,
+    /// Output directory, relative to the config file.
+    pub out: PathBuf,
+    /// Before `curve` and `database`, find the period at which the relaxed tile carries no
+    /// normal stress ([`crate::database::relax_period`]). Default true.
+    #[serde(default = "yes")]
+    pub relax_period: bool,
+    /// Yarn model overrides.
+    #[serde(default)]
+    pub model: ModelConfig,
+    /// Solver overrides.
+    #[serde(default)]
+    pub solver: SolverConfig,
+    /// Curve settings.
+    #[serde(default)]
+    pub curve: CurveConfig,
+    /// Database settings.
+    #[serde(default)]
+    pub database: DatabaseConfig,
+}
+
+/// Yarn model overrides (see [`YarnModel`]); absent keys keep the defaults.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelConfig {
+    /// Soft stretch stiffness k₁ (N).
+    pub k1: Option<f64>,
+    /// Stiff stretch stiffness k₂ (N).
+    pub k2: Option<f64>,
+    /// Onset strain of the stiff phase.
+    pub onset: Option<f64>,
+    /// Bending stiffness (N·m²).
+    pub bending: Option<f64>,
+    /// Twist stiffness (N·m²).
+    pub twist: Option<f64>,
+    /// Barrier stiffness of the two phases (J/m²).
+    pub contact_stiffness: Option<[f64; 2]>,
+    /// Barrier radius of the two phases in yarn radii.
+    pub contact_radius: Option<[f64; 2]>,
+    /// Simpson intervals per edge (even, ≥ 2).
+    pub simpson_intervals: Option<usize>,
+}
+
+/// Newton overrides.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverConfig {
+    /// Absolute gradient tolerance (J/m).
+    pub gradient_abs_tol: Option<f64>,
+    /// Relative gradient tolerance.
+    pub gradient_rel_tol: Option<f64>,
+    /// Iteration cap.
+    pub max_iterations: Option<usize>,
+}
+
+/// Curve settings.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurveConfig {
+    /// Directions (`weft`, `bias`, `warp`).
+    #[serde(default = "all_directions")]
+    pub directions: Vec<String>,
+    /// Largest stretch.
+    #[serde(default = "default_max_stretch")]
+    pub max_stretch: f64,
+    /// Points from 0 to `max_stretch` (≥ 2).
+    #[serde(default = "default_points")]
+    pub points: usize,
+}
+
+impl Default for CurveConfig {
+    fn default() -> Self {
+        Self {
+            directions: all_directions(),
+            max_stretch: default_max_stretch(),
+            points: default_points(),
+        }
+    }
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn all_directions() -> Vec<String> {
+    vec!["weft".into(), "bias".into(), "warp".into()]
+}
+fn default_max_stretch() -> f64 {
+    0.5
+}
+fn default_points() -> usize {
+    11
+}
+
+/// An axis: explicit values or a uniform range.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum AxisConfig {
+    /// Explicit sample values (strictly increasing).
+    List(Vec<f64>),
+    /// `n` uniform samples from `min` to `max`.
+    Range {
+        /// First value.
+        min: f64,
+        /// Last value.
+        max: f64,
+        /// Number of samples.
+        n: usize,
+    },
+}
+
+impl AxisConfig {
+    /// The sample values.
+    pub fn values(&self) -> Vec<f64> {
+        match self {
+            AxisConfig::List(v) => v.clone(),
+            AxisConfig::Range { min, max, n } => uniform_axis(*min, *max, *n),
+        }
+    }
+}
+
+/// Database settings (defaults: the 9³ grid of seed 004 over sx, sy ∈ [−0.2, 1], sa ∈
+/// [−0.7, 0.7]).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DatabaseConfig {
+    /// sx samples.
+    #[serde(default = "default_stretch_axis")]
+    pub sx: AxisConfig,
+    /// sa samples.
+    #[serde(default = "default_shear_axis")]
+    pub sa: AxisConfig,
+    /// sy samples.
+    #[serde(default = "default_stretch_axis")]
+    pub sy: AxisConfig,
+}
+
+impl Default for DatabaseConfig {
+    fn default() -> Self {
+        Self {
+            sx: default_stretch_axis(),
+            sa: default_shear_axis(),
+            sy: default_stretch_axis(),
+        }
+    }
+}
+
+fn default_stretch_axis() -> AxisConfig {
+    AxisConfig::Range {
+        min: -0.2,
+        max: 1.0,
+        n: 9,
+    }
+}
+fn default_shear_axis() -> AxisConfig {
+    AxisConfig::Range {
+        min: -0.7,
+        max: 0.7,
+        n: 9,
+    }
+}
+
+/// Errors of reading a config.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// The TOML is malformed or has unknown/mistyped keys.
+    #[error("{}:{line}:{column}: {message}", path.display())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A value is out of range.
+    #[error("{}: {message}", path.display())]
+    Invalid {
+        /// What is wrong.
+        message: String,
+        /// The config file.
+        path: PathBuf,
+    },
+}
+
+impl Config {
+    /// Reads `path`; relative paths inside are resolved against its directory.
+    pub fn read(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut config = Self::parse(&text, path)?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        config.tile = base.join(&config.tile);
+        config.out = base.join(&config.out);
+        Ok(config)
+    }
+
+    /// Parses TOML `text` (`path` names it in errors).
+    pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
+        toml::from_str::<Config>(text).map_err(|e| {
+            let (line, column) = e
+                .span()
+                .map(|s| line_column(text, s.start))
+                .unwrap_or((1, 1));
+            ConfigError::Parse {
+                path: path.to_path_buf(),
+                line,
+                column,
+                message: e.message().to_string(),
+            }
+        })
+    }
+
+    /// The yarn model for yarn radius `r` (m) with the overrides applied.
+    pub fn model(&self, r: f64, path: &Path) -> Result<YarnModel, ConfigError> {
+        let bad = |message: String| {
+            Err(ConfigError::Invalid {
+                message,
+                path: path.to_path_buf(),
+            })
+        };
+        let mut model = YarnModel::default_for_radius(r);
+        let m = &self.model;
+        if let StretchLaw::TwoPhase { k1, k2, onset } = &mut model.stretch {
+            *k1 = m.k1.unwrap_or(*k1);
+            *k2 = m.k2.unwrap_or(*k2);
+            *onset = m.onset.unwrap_or(*onset);
+            if !(*k1 > 0.0 && *k2 > 0.0 && *onset >= 0.0) {
+                return bad(format!(
+                    "[model] needs k1 > 0, k2 > 0, onset >= 0 (got {k1}, {k2}, {onset})"
+                ));
+            }
+        }
+        model.bending = m.bending.unwrap_or(model.bending);
+        model.twist = m.twist.unwrap_or(model.twist);
+        if !(model.bending > 0.0 && model.twist >= 0.0) {
+            return bad(format!(
+                "[model] needs bending > 0 and twist >= 0 (got {}, {})",
+                model.bending, model.twist
+            ));
+        }
+        if let Some(k) = m.contact_stiffness {
+            for (phase, k) in model.contact.iter_mut().zip(k) {
+                if !(k > 0.0 && k.is_finite()) {
+                    return bad(format!("[model] contact_stiffness must be > 0, got {k}"));
+                }
+                phase.stiffness = k;
+            }
+        }
+        if let Some(f) = m.contact_radius {
+            for (phase, f) in model.contact.iter_mut().zip(f) {
+                if !(f > 0.0 && f.is_finite()) {
+                    return bad(format!("[model] contact_radius must be > 0, got {f}"));
+                }
+                phase.radius = f * r;
+            }
+        }
+        if let Some(n) = m.simpson_intervals {
+            model.quadrature = Simpson::new(n).ok_or_else(|| ConfigError::Invalid {
+                message: format!("[model] simpson_intervals must be even and >= 2, got {n}"),
+                path: path.to_path_buf(),
+            })?;
+        }
+        Ok(model)
+    }
+
+    /// Equilibrium settings with the overrides applied.
+    pub fn equilibrium(&self) -> EquilibriumSettings {
+        let mut s = EquilibriumSettings::default();
+        let c = &self.solver;
+        s.newton.gradient_abs_tol = c.gradient_abs_tol.unwrap_or(s.newton.gradient_abs_tol);
+        s.newton.gradient_rel_tol = c.gradient_rel_tol.unwrap_or(s.newton.gradient_rel_tol);
+        s.newton.max_iterations = c.max_iterations.unwrap_or(s.newton.max_iterations);
+        s
+    }
+
+    /// The curve directions and stretches.
+    pub fn curve(&self, path: &Path) -> Result<(Vec<Direction>, Vec<f64>), ConfigError> {
+        let c = &self.curve;
+        let mut directions = Vec::new();
+        for name in &c.directions {
+            let d = Direction::ALL
+                .into_iter()
+                .find(|d| d.name() == name)
+                .ok_or_else(|| ConfigError::Invalid {
+                    message: format!(
+                        "[curve] unknown direction {name:?} (expected weft, bias or warp)"
+                    ),
+                    path: path.to_path_buf(),
+                })?;
+            directions.push(d);
+        }
+        if !(c.points >= 2 && c.max_stretch > 0.0 && c.max_stretch.is_finite()) {
+            return Err(ConfigError::Invalid {
+                message: format!(
+                    "[curve] needs points >= 2 and max_stretch > 0 (got {}, {})",
+                    c.points, c.max_stretch
+                ),
+                path: path.to_path_buf(),
+            });
+        }
+        Ok((directions, uniform_axis(0.0, c.max_stretch, c.points)))
+    }
+}
+
+/// 1-based (line, column) of byte offset `at` in `text`.
+fn line_column(text: &str, at: usize) -> (usize, usize) {
+    let before = &text[..at.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_keys_and_bad_types_are_located() {
+        let path = Path::new("run.toml");
+        let e = Config::parse(
+            "tile = \"a.pyp\"\nout = \"o\"\n[model]\nbendng = 1.0\n",
+            path,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.starts_with("run.toml:4:"), "{e}");
+        assert!(e.contains("bendng"), "{e}");
+        let e = Config::parse(
+            "tile = \"a.pyp\"\nout = \"o\"\n[curve]\npoints = \"many\"\n",
+            path,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.starts_with("run.toml:4:"), "{e}");
+    }
+
+    #[test]
+    fn defaults_and_axes() {
+        let c = Config::parse(
+            "tile = \"a.pyp\"\nout = \"o\"\n[database]\nsa = [-0.5, 0.0, 0.5]\n",
+            Path::new("x.toml"),
+        )
+        .unwrap();
+        assert_eq!(c.database.sa.values(), vec![-0.5, 0.0, 0.5]);
+        assert_eq!(c.database.sx.values().len(), 9);
+        let (dirs, s) = c.curve(Path::new("x.toml")).unwrap();
+        assert_eq!(dirs.len(), 3);
+        assert_eq!(s.len(), 11);
+        let bad = Config::parse(
+            "tile = \"a.pyp\"\nout = \"o\"\n[curve]\ndirections = [\"diagonal\"]\n",
+            Path::new("x.toml"),
+        )
+        .unwrap();
+        assert!(
+            bad.curve(Path::new("x.toml"))
+                .unwrap_err()
+                .to_string()
+                .contains("diagonal")
+        );
+    }
+}

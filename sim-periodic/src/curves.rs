@@ -1,0 +1,291 @@
+//! Homogenized uniaxial stress–strain curves of a tile (seed 002 §7.1).
+//!
+//! For a stretch `s` along the unit direction `u` at angle `angle` from material x (weft 0,
+//! bias π/4, warp π/2), the coarse map is `F₂ = (1 + s) u uᵀ + (1 − c) v vᵀ` with `v ⊥ u`, and
+//! the compression `c` is the one at which the orthogonal stress vanishes,
+//!
+//! ```text
+//! σ_c(c) = vᵀ P v = 0,     P = ∂Ψ/∂F₂ at equilibrium (gathered, seed 002 Eq. 10),
+//! ```
+//!
+//! since `∂Ψ/∂c = −vᵀPv`. The curve records `{s, c, σ_s = uᵀPu}` (σ in N/m).
+//!
+//! The paper searches `c` with the derivative-free COBYLA; here `σ_c` is exact at every
+//! equilibrium (gathered stress), so a safeguarded secant root-find (Illinois-type regula
+//! falsi once the root is bracketed) converges in a handful of warm-started solves. Points are
+//! solved in order of `s`, each warm-started from the previous one.
+
+use crate::coarse::Coarse;
+use crate::periodic::{
+    Equilibrium, EquilibriumSettings, PeriodicError, YarnModel, solve_equilibrium,
+};
+use crate::tile::Tile;
+use nalgebra::Vector2;
+
+/// Named fabric directions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Direction {
+    /// Material x (0°).
+    Weft,
+    /// 45°.
+    Bias,
+    /// Material y (90°).
+    Warp,
+}
+
+impl Direction {
+    /// All three, in the usual order.
+    pub const ALL: [Direction; 3] = [Direction::Weft, Direction::Bias, Direction::Warp];
+
+    /// Angle from material x (rad).
+    pub fn angle(self) -> f64 {
+        match self {
+            Direction::Weft => 0.0,
+            Direction::Bias => std::f64::consts::FRAC_PI_4,
+            Direction::Warp => std::f64::consts::FRAC_PI_2,
+        }
+    }
+
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Direction::Weft => "weft",
+            Direction::Bias => "bias",
+            Direction::Warp => "warp",
+        }
+    }
+}
+
+/// Settings of a curve.
+#[derive(Clone, Debug)]
+pub struct CurveSettings {
+    /// Settings of every equilibrium solve.
+    pub equilibrium: EquilibriumSettings,
+    /// Root found when `|σ_c| ≤ stress_abs_tol + stress_rel_tol · |σ_s|` (N/m). Defaults
+    /// `1e-8` N/m and `1e-6`.
+    pub stress_abs_tol: f64,
+    /// See [`CurveSettings::stress_abs_tol`].
+    pub stress_rel_tol: f64,
+    /// Most equilibrium solves per point. Default 30.
+    pub max_solves: usize,
+}
+
+impl Default for CurveSettings {
+    fn default() -> Self {
+        Self {
+            equilibrium: EquilibriumSettings::default(),
+            stress_abs_tol: 1e-8,
+            stress_rel_tol: 1e-6,
+            max_solves: 30,
+        }
+    }
+}
+
+/// One point of a uniaxial curve.
+#[derive(Clone, Debug)]
+pub struct CurvePoint {
+    /// Stretch `s` (unitless).
+    pub s: f64,
+    /// Orthogonal compression `c` at zero orthogonal stress (unitless, positive = narrower).
+    pub c: f64,
+    /// Stretch stress `σ_s = uᵀPu` (N/m).
+    pub sigma_s: f64,
+    /// Remaining orthogonal stress `vᵀPv` (N/m), within tolerance of 0.
+    pub sigma_c: f64,
+    /// Energy density Ψ (J/m²).
+    pub density: f64,
+    /// Equilibrium solves used by the root-find.
+    pub solves: usize,
+    /// Newton iterations summed over those solves.
+    pub iterations: usize,
+}
+
+/// Errors of curve computation.
+#[derive(Debug, thiserror::Error)]
+pub enum CurveError {
+    /// An equilibrium solve failed.
+    #[error("{direction} stretch s = {s}, compression c = {c}: {source}")]
+    Solve {
+        /// Direction name.
+        direction: &'static str,
+        /// Stretch.
+        s: f64,
+        /// Compression tried.
+        c: f64,
+        /// Solver error.
+        source: PeriodicError,
+    },
+    /// The root-find did not converge.
+    #[error(
+        "{direction} stretch s = {s}: orthogonal stress did not vanish after {solves} solves \
+         (best |σ_c| = {best} N/m at c = {c})"
+    )]
+    RootFind {
+        /// Direction name.
+        direction: &'static str,
+        /// Stretch.
+        s: f64,
+        /// Best compression.
+        c: f64,
+        /// Its residual stress.
+        best: f64,
+        /// Solves used.
+        solves: usize,
+    },
+    /// Invalid input.
+    #[error("invalid curve input: {0}")]
+    Invalid(String),
+}
+
+/// Stretch and orthogonal stress `(uᵀPu, vᵀPv)` of an equilibrium along `angle`.
+pub fn directional_stress(eq: &Equilibrium, angle: f64) -> (f64, f64) {
+    let u = Vector2::new(angle.cos(), angle.sin());
+    let v = Vector2::new(-u.y, u.x);
+    (u.dot(&(eq.stress * u)), v.dot(&(eq.stress * v)))
+}
+
+/// The uniaxial curve of `tile` along `direction` at the stretches `stretches` (solved in the
+/// given order, each warm-started from the previous point; start at or near 0 and move
+/// outward for robust continuation).
+pub fn uniaxial_curve(
+    tile: &Tile,
+    model: &YarnModel,
+    direction: Direction,
+    stretches: &[f64],
+    settings: &CurveSettings,
+) -> Result<Vec<CurvePoint>, CurveError> {
+    if let Some(bad) = stretches.iter().find(|s| !(s.is_finite() && **s > -1.0)) {
+        return Err(CurveError::Invalid(format!(
+            "stretch {bad} must be finite and > -1"
+        )));
+    }
+    let angle = direction.angle();
+    let name = direction.name();
+    let mut warm: Option<Vec<f64>> = None;
+    let mut c_prev = 0.0;
+    let mut slope = 0.0; // dc/ds of the previous step
+    let mut s_prev = 0.0;
+    let mut out = Vec::with_capacity(stretches.len());
+    for &s in stretches {
+        let guess = (c_prev + slope * (s - s_prev)).min(0.9);
+        let point = root_find(
+            tile,
+            model,
+            angle,
+            name,
+            s,
+            guess,
+            warm.as_deref(),
+            settings,
+        )?;
+        if let Some(last) = out.last() {
+            let last: &CurvePoint = last;
+            if (s - last.s).abs() > 0.0 {
+                slope = (point.0.c - last.c) / (s - last.s);
+            }
+        }
+        c_prev = point.0.c;
+        s_prev = s;
+        warm = Some(point.1);
+        out.push(point.0);
+    }
+    Ok(out)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn root_find(
+    tile: &Tile,
+    model: &YarnModel,
+    angle: f64,
+    name: &'static str,
+    s: f64,
+    guess: f64,
+    warm: Option<&[f64]>,
+    settings: &CurveSettings,
+) -> Result<(CurvePoint, Vec<f64>), CurveError> {
+    let mut solves = 0;
+    let mut iterations = 0;
+    let mut last_dofs: Option<Vec<f64>> = warm.map(<[f64]>::to_vec);
+    // Evaluates σ_c at compression c (warm-started from the last solve).
+    let mut eval =
+        |c: f64, last_dofs: &mut Option<Vec<f64>>| -> Result<(f64, f64, Equilibrium), CurveError> {
+            let coarse = Coarse::uniaxial(s, c, angle);
+            let eq = solve_equilibrium(
+                tile,
+                model,
+                coarse,
+                last_dofs.as_deref(),
+                &settings.equilibrium,
+            )
+            .map_err(|source| CurveError::Solve {
+                direction: name,
+                s,
+                c,
+                source,
+            })?;
+            solves += 1;
+            iterations += eq.iterations;
+            *last_dofs = Some(eq.dofs.clone());
+            let (ss, sc) = directional_stress(&eq, angle);
+            Ok((ss, sc, eq))
+        };
+    let converged =
+        |ss: f64, sc: f64| sc.abs() <= settings.stress_abs_tol + settings.stress_rel_tol * ss.abs();
+    let (mut c0, (mut ss0, mut f0, mut eq0)) = (guess, eval(guess, &mut last_dofs)?);
+    // Second point: a small step of c (the secant then finds the sign of dσ_c/dc itself).
+    let mut c1 = c0 + if f0 > 0.0 { 0.01 } else { -0.01 };
+    let (mut ss1, mut f1, mut eq1) = eval(c1, &mut last_dofs)?;
+    let mut bracket = f0.signum() != f1.signum();
+    let mut side = 0i32; // Illinois bookkeeping
+    for _ in 0..settings.max_solves {
+        if converged(ss1, f1) {
+            let point = CurvePoint {
+                s,
+                c: c1,
+                sigma_s: ss1,
+                sigma_c: f1,
+                density: eq1.density,
+                solves,
+                iterations,
+            };
+            return Ok((point, eq1.dofs));
+        }
+        let denom = f1 - f0;
+        let mut c2 = if denom != 0.0 {
+            c1 - f1 * (c1 - c0) / denom
+        } else {
+            c1 + 0.01
+        };
+        // Safeguards: stay inside the admissible range and do not jump far.
+        let max_jump = 0.2;
+        c2 = c2.clamp(c1 - max_jump, c1 + max_jump).min(0.95);
+        if !c2.is_finite() {
+            break;
+        }
+        let (ss2, f2, eq2) = eval(c2, &mut last_dofs)?;
+        if bracket {
+            // Keep the bracket [c0, c1] around the root (Illinois modification of regula falsi).
+            if f2.signum() == f1.signum() {
+                if side == 1 {
+                    f0 *= 0.5;
+                }
+                side = 1;
+            } else {
+                (c0, ss0, f0, eq0) = (c1, ss1, f1, eq1);
+                side = -1;
+            }
+        } else {
+            bracket = f2.signum() != f1.signum();
+            (c0, ss0, f0, eq0) = (c1, ss1, f1, eq1);
+        }
+        (c1, ss1, f1, eq1) = (c2, ss2, f2, eq2);
+    }
+    let _ = (ss0, &eq0);
+    Err(CurveError::RootFind {
+        direction: name,
+        s,
+        c: c1,
+        best: f1.abs().min(f0.abs()),
+        solves,
+    })
+}

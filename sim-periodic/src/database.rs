@@ -1,0 +1,701 @@
+//! Generation of the displacement database ΔQ(sx, sa, sy) of a tile (seed 004 §3.2).
+//!
+//! **Reference.** The database is relative to the tile *relaxed at zero strain*
+//! ([`relax_reference`]): its positions and twists are replaced by the equilibrium ones, so
+//! that ΔQ = 0 at zero strain up to the solver tolerance, and the runtime deforms that relaxed
+//! pattern (write it next to the database as `.pyp`).
+//!
+//! **Sample.** For every grid point `(sx[i], sa[j], sy[k])` the tile is solved to equilibrium
+//! under `F₂ = √I` with the no-sliding constraint (seed 004 Eq. 3), and the fluctuation is
+//! pulled back into material space (seed 004 Eq. 18, in-plane: `X̂ = X + diag(√I⁻¹, 1) ũ`):
+//!
+//! ```text
+//! ΔQ_v = (F₃⁻¹ ũ_v, θ_{out(v)} − Θ_{out(v)})
+//! ```
+//!
+//! with `θ_{out(v)}` the twist angle of the edge leaving vertex `v`.
+//!
+//! **Continuation.** Samples are solved along a tree rooted at the grid point nearest zero
+//! strain: first along the `sx` line through it, then, in parallel for every `sx`, along `sy`,
+//! then, in parallel for every `(sx, sy)`, along `sa` — each sample warm-started from its
+//! neighbour one step closer to the root. A step whose Newton solve fails is split in half
+//! (up to [`DatabaseSettings::max_bisections`] times) before the sample is reported as failed.
+//!
+//! **Resumability.** With a checkpoint directory, every finished sample is written there at
+//! once (atomically: temporary file, then rename) with its DOFs; a rerun with the same inputs
+//! loads them and solves only what is missing. A fingerprint of the inputs (tile, model, axes,
+//! settings) guards against resuming with different inputs.
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use nalgebra::{Matrix2, Vector3};
+use rayon::prelude::*;
+
+use crate::coarse::{Coarse, Strain};
+use crate::madypg::{AXIS_NAMES, Database, DatabaseError};
+use crate::patterns::{PatternError, RelaxReport, RelaxSettings, relax};
+use crate::periodic::{
+    Equilibrium, EquilibriumSettings, PeriodicError, YarnModel, initial_dofs, solve_equilibrium,
+};
+use crate::tile::Tile;
+
+/// Settings of a database generation.
+#[derive(Clone, Debug)]
+pub struct DatabaseSettings {
+    /// Settings of every equilibrium solve.
+    pub equilibrium: EquilibriumSettings,
+    /// How often a failed continuation step may be halved. Default 4 (steps down to 1/16).
+    pub max_bisections: usize,
+}
+
+impl Default for DatabaseSettings {
+    fn default() -> Self {
+        Self {
+            equilibrium: EquilibriumSettings::default(),
+            max_bisections: 4,
+        }
+    }
+}
+
+/// Errors of database generation.
+#[derive(Debug, thiserror::Error)]
+pub enum GenerationError {
+    /// An axis is invalid (see [`crate::madypg`]).
+    #[error(transparent)]
+    Database(#[from] DatabaseError),
+    /// A grid point is not an admissible strain.
+    #[error(
+        "sample (sx, sa, sy) = ({}, {}, {}) is not admissible: need sx, sy > -1 and |sa| < 1",
+        .0.sx, .0.sa, .0.sy
+    )]
+    Inadmissible(Strain),
+    /// The tile could not be solved at a sample, even with halved steps.
+    #[error(
+        "no equilibrium at (sx, sa, sy) = ({}, {}, {}) after {bisections} step halvings: {source}",
+        strain.sx, strain.sa, strain.sy
+    )]
+    Solve {
+        /// The sample.
+        strain: Strain,
+        /// Halvings tried.
+        bisections: usize,
+        /// The last solver error.
+        source: PeriodicError,
+    },
+    /// The relaxation at zero strain failed.
+    #[error("relaxing the tile at zero strain failed: {0}")]
+    Relax(PatternError),
+    /// A checkpoint could not be read or written, or belongs to other inputs.
+    #[error("checkpoint {}: {problem}", path.display())]
+    Checkpoint {
+        /// The file or directory.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A solve produced a non-finite value (never written to a database).
+    #[error("non-finite result at (sx, sa, sy) = ({}, {}, {})", .0.sx, .0.sa, .0.sy)]
+    NonFinite(Strain),
+}
+
+/// One solved sample.
+#[derive(Clone, Debug)]
+pub struct SampleRecord {
+    /// Grid indices `(isx, isa, isy)`.
+    pub index: [usize; 3],
+    /// The strain.
+    pub strain: Strain,
+    /// Energy density Ψ (J/m²).
+    pub density: f64,
+    /// Gathered stress ∂Ψ/∂F₂ (N/m).
+    pub stress: Matrix2<f64>,
+    /// Newton iterations (all sub-steps).
+    pub iterations: usize,
+    /// Continuation sub-steps used (1 when the direct warm start converged).
+    pub substeps: usize,
+    /// Wall time of this sample's solves (s); 0 when loaded from a checkpoint.
+    pub seconds: f64,
+    /// Whether it was loaded from a checkpoint rather than solved.
+    pub resumed: bool,
+}
+
+/// The result of [`generate`].
+#[derive(Clone, Debug)]
+pub struct Generated {
+    /// The displacement database (relative to the reference tile given to [`generate`]).
+    pub database: Database,
+    /// Per-sample records, in database order (`isx` fastest, then `isa`, then `isy`).
+    pub samples: Vec<SampleRecord>,
+    /// Total wall time (s).
+    pub seconds: f64,
+}
+
+/// Relaxes `tile` at zero strain without changing its rest shape: solve, re-base the tile on
+/// the solution (positions, twists, directors transported, see [`crate::patterns::rebase`]),
+/// and repeat until a solve moves it by less than 1e-10 m ([`crate::patterns::relax`] with no
+/// rest-shape reset rounds). The result is the reference the database is relative to.
+pub fn relax_reference(
+    tile: &Tile,
+    model: &YarnModel,
+    settings: &EquilibriumSettings,
+) -> Result<(Tile, RelaxReport), GenerationError> {
+    let settings = RelaxSettings {
+        rounds: 0,
+        equilibrium: settings.clone(),
+        ..RelaxSettings::default()
+    };
+    relax(tile, model, &settings).map_err(GenerationError::Relax)
+}
+
+/// The outcome of [`relax_period`].
+#[derive(Clone, Debug)]
+pub struct PeriodRelaxation {
+    /// Stretch `(F₁₁, F₂₂)` applied to the period (unitless).
+    pub stretch: [f64; 2],
+    /// Remaining coarse stress `∂Ψ/∂F₂` (N/m) of the new tile at zero strain.
+    pub stress: Matrix2<f64>,
+    /// Equilibrium solves used.
+    pub solves: usize,
+}
+
+/// Finds the tile period at which the relaxed tile carries no normal coarse stress
+/// (`P₁₁ = P₂₂ = 0` under `F₂ = diag(a, b)`, Newton on `(a, b)` with a finite-difference
+/// Jacobian of the gathered stress, each stress an equilibrium solve), then re-bases the tile
+/// on that state ([`crate::patterns::rebase_stretched`]) and settles it with
+/// [`relax_reference`]. A file tile relaxed with a yarn model other than its own is otherwise
+/// pre-stressed at its nominal period, and its curves start at a non-zero stress. The shear
+/// stress `P₁₂` is left as is (reported). `tol` is in N/m.
+pub fn relax_period(
+    tile: &Tile,
+    model: &YarnModel,
+    settings: &EquilibriumSettings,
+    tol: f64,
+) -> Result<(Tile, PeriodRelaxation), GenerationError> {
+    // Re-basing and settling moves the state slightly (the transported frames change the
+    // energy at first order in the move), so repeat until the settled tile meets `tol`.
+    let mut current = tile.clone();
+    let mut total = PeriodRelaxation {
+        stretch: [1.0, 1.0],
+        stress: Matrix2::zeros(),
+        solves: 0,
+    };
+    for _ in 0..4 {
+        let (next, step) = relax_period_once(&current, model, settings, tol)?;
+        current = next;
+        total.stretch = [
+            total.stretch[0] * step.stretch[0],
+            total.stretch[1] * step.stretch[1],
+        ];
+        total.stress = step.stress;
+        total.solves += step.solves;
+        if step.stress[(0, 0)].abs().max(step.stress[(1, 1)].abs()) <= tol {
+            return Ok((current, total));
+        }
+    }
+    Err(GenerationError::Relax(PatternError::Invalid(format!(
+        "the settled period still carries |P| = {:.3e} N/m > {tol} N/m",
+        total.stress[(0, 0)].abs().max(total.stress[(1, 1)].abs())
+    ))))
+}
+
+fn relax_period_once(
+    tile: &Tile,
+    model: &YarnModel,
+    settings: &EquilibriumSettings,
+    tol: f64,
+) -> Result<(Tile, PeriodRelaxation), GenerationError> {
+    let (tile, _) = relax_reference(tile, model, settings)?;
+    let mut solves = 0;
+    let mut warm: Option<Vec<f64>> = None;
+    let mut stress_at = |ab: [f64; 2], warm: &mut Option<Vec<f64>>| {
+        let coarse = Coarse {
+            f: Matrix2::new(ab[0], 0.0, 0.0, ab[1]),
+        };
+        solves += 1;
+        let eq = solve_equilibrium(&tile, model, coarse, warm.as_deref(), settings).map_err(
+            |source| GenerationError::Solve {
+                strain: coarse.strain(),
+                bisections: 0,
+                source,
+            },
+        )?;
+        *warm = Some(eq.dofs.clone());
+        Ok::<_, GenerationError>(eq)
+    };
+    let mut ab = [1.0, 1.0];
+    let h = 1e-4;
+    for _ in 0..20 {
+        let eq = stress_at(ab, &mut warm)?;
+        let r = [eq.stress[(0, 0)], eq.stress[(1, 1)]];
+        if r[0].abs().max(r[1].abs()) <= tol {
+            let relaxed = crate::patterns::rebase_stretched(&tile, ab, &eq.dofs)
+                .map_err(GenerationError::Relax)?;
+            let (relaxed, report) = relax_reference(&relaxed, model, settings)?;
+            return Ok((
+                relaxed,
+                PeriodRelaxation {
+                    stretch: ab,
+                    stress: report.stress,
+                    solves: solves + report.iterations.len(),
+                },
+            ));
+        }
+        let base = eq.dofs.clone();
+        let mut jac = Matrix2::zeros();
+        for k in 0..2 {
+            let mut probe = ab;
+            probe[k] += h;
+            let mut start = Some(base.clone());
+            let e = stress_at(probe, &mut start)?;
+            jac[(0, k)] = (e.stress[(0, 0)] - r[0]) / h;
+            jac[(1, k)] = (e.stress[(1, 1)] - r[1]) / h;
+        }
+        let step = jac
+            .try_inverse()
+            .map(|inv| -(inv * nalgebra::Vector2::new(r[0], r[1])))
+            .filter(|d| d.iter().all(|v| v.is_finite()))
+            .ok_or_else(|| {
+                GenerationError::Relax(PatternError::Invalid(
+                    "the period stiffness is singular".into(),
+                ))
+            })?;
+        // At most 5 % per step.
+        let scale = (0.05 / step.amax()).min(1.0);
+        ab = [ab[0] + scale * step[0], ab[1] + scale * step[1]];
+        warm = Some(base);
+    }
+    Err(GenerationError::Relax(PatternError::Invalid(format!(
+        "the period did not relax to |P| <= {tol} N/m in 20 Newton steps"
+    ))))
+}
+
+/// The material-space displacement rows `(Δx, Δy, Δz, Δθ)` of an equilibrium (seed 004
+/// Eq. 18), per vertex.
+pub fn material_displacements(
+    tile: &Tile,
+    eq: &Equilibrium,
+) -> Result<Vec<[f64; 4]>, PeriodicError> {
+    let topology = tile.topology()?;
+    let n = tile.n_vertices();
+    let inverse =
+        eq.coarse.f.try_inverse().ok_or_else(|| {
+            PeriodicError::Invalid(format!("coarse map {} is singular", eq.coarse.f))
+        })?;
+    Ok((0..n)
+        .map(|v| {
+            let u = Vector3::new(eq.dofs[3 * v], eq.dofs[3 * v + 1], eq.dofs[3 * v + 2]);
+            let plane = inverse * u.xy();
+            let e = topology.outgoing(v);
+            [plane.x, plane.y, u.z, eq.dofs[3 * n + e] - tile.twists[v]]
+        })
+        .collect())
+}
+
+/// Generates the database of the (already relaxed, see [`relax_reference`]) `tile` over
+/// `axes = [sx, sa, sy]`, optionally checkpointing into `checkpoint`, calling `progress` after
+/// every finished sample (from worker threads).
+pub fn generate(
+    tile: &Tile,
+    model: &YarnModel,
+    axes: [Vec<f64>; 3],
+    settings: &DatabaseSettings,
+    checkpoint: Option<&Path>,
+    progress: &(dyn Fn(&SampleRecord) + Sync),
+) -> Result<Generated, GenerationError> {
+    let start = Instant::now();
+    // Validate the axes exactly as the database file format does.
+    let empty = Database {
+        axes: axes.clone(),
+        n_vertices: 0,
+        data: vec![],
+    };
+    empty.validate()?;
+    let dims = [axes[0].len(), axes[1].len(), axes[2].len()];
+    for &sx in &axes[0] {
+        for &sa in &axes[1] {
+            for &sy in &axes[2] {
+                let strain = Strain { sx, sa, sy };
+                if strain.validated().is_none() {
+                    return Err(GenerationError::Inadmissible(strain));
+                }
+            }
+        }
+    }
+    let store = Checkpoint::open(checkpoint, tile, model, &axes, settings)?;
+    let rest = initial_dofs(tile).map_err(|e| GenerationError::Relax(e.into()))?;
+    let root = [0, 1, 2].map(|k| nearest_to_zero(&axes[k]));
+    let flat = |[i, j, k]: [usize; 3]| i + dims[0] * (j + dims[1] * k);
+    let strain_at = |[i, j, k]: [usize; 3]| Strain {
+        sx: axes[0][i],
+        sa: axes[1][j],
+        sy: axes[2][k],
+    };
+    let results: Mutex<Vec<Option<Solved>>> = Mutex::new(vec![None; dims.iter().product()]);
+
+    // Solves (or loads) the sample at `index`, warm-started from `from` (strain, DOFs).
+    let index_on = |axis: usize, strain: Strain| -> usize {
+        let v = [strain.sx, strain.sa, strain.sy][axis];
+        axes[axis].iter().position(|&a| a == v).unwrap_or(0)
+    };
+    let solve = |index: [usize; 3],
+                 from: (Strain, &[f64]),
+                 predicted: Option<Vec<f64>>|
+     -> Result<Vec<f64>, GenerationError> {
+        let strain = strain_at(index);
+        let (record, dofs) = match store.load(index, strain, tile)? {
+            Some(loaded) => loaded,
+            None => {
+                let t = Instant::now();
+                let coarse = Coarse::from_strain(&strain);
+                let predicted = predicted.and_then(|p| {
+                    solve_equilibrium(tile, model, coarse, Some(&p), &settings.equilibrium).ok()
+                });
+                let (eq, iterations, substeps) = match predicted {
+                    Some(eq) => {
+                        let iterations = eq.iterations;
+                        (eq, iterations, 1)
+                    }
+                    None => continue_to(
+                        tile,
+                        model,
+                        from,
+                        strain,
+                        settings.max_bisections,
+                        &settings.equilibrium,
+                    )?,
+                };
+                if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
+                    return Err(GenerationError::NonFinite(strain));
+                }
+                let record = SampleRecord {
+                    index,
+                    strain,
+                    density: eq.density,
+                    stress: eq.stress,
+                    iterations,
+                    substeps,
+                    seconds: t.elapsed().as_secs_f64(),
+                    resumed: false,
+                };
+                store.save(&record, &eq.dofs)?;
+                (record, eq.dofs)
+            }
+        };
+        progress(&record);
+        results.lock().expect("results lock")[flat(index)] = Some((record, dofs.clone()));
+        Ok(dofs)
+    };
+    // Solves the samples along one axis outward from `seed` (already solved, with `dofs`).
+    let line = |axis: usize, seed: [usize; 3], dofs: &[f64]| -> Result<(), GenerationError> {
+        let walk = |range: Box<dyn Iterator<Item = usize> + Send>| -> Result<(), GenerationError> {
+            let (mut prev_strain, mut prev) = (strain_at(seed), dofs.to_vec());
+            let mut before: Option<(f64, Vec<f64>)> = None; // the sample before `prev`
+            for i in range {
+                let mut index = seed;
+                index[axis] = i;
+                // Secant predictor along the line from the last two samples.
+                let value = axes[axis][i];
+                let prev_value = axes[axis][index_on(axis, prev_strain)];
+                let predicted = before.as_ref().map(|(v0, x0)| {
+                    let ratio = (value - prev_value) / (prev_value - v0);
+                    prev.iter()
+                        .zip(x0)
+                        .map(|(p, q)| p + ratio * (p - q))
+                        .collect::<Vec<f64>>()
+                });
+                let next = solve(index, (prev_strain, &prev), predicted)?;
+                before = Some((prev_value, std::mem::replace(&mut prev, next)));
+                prev_strain = strain_at(index);
+            }
+            Ok(())
+        };
+        let (up, down) = rayon::join(
+            || walk(Box::new(seed[axis] + 1..dims[axis])),
+            || walk(Box::new((0..seed[axis]).rev())),
+        );
+        up.and(down)
+    };
+    let dofs_at = |index: [usize; 3]| -> Vec<f64> {
+        results.lock().expect("results lock")[flat(index)]
+            .as_ref()
+            .map(|(_, d)| d.clone())
+            .expect("continuation parent solved before its children")
+    };
+
+    // Root, then the sx line, then sy lines per sx, then sa lines per (sx, sy).
+    let root_dofs = solve(root, (Strain::ZERO, &rest), None)?;
+    line(0, root, &root_dofs)?;
+    (0..dims[0]).into_par_iter().try_for_each(|i| {
+        let seed = [i, root[1], root[2]];
+        line(2, seed, &dofs_at(seed))
+    })?;
+    (0..dims[0] * dims[2]).into_par_iter().try_for_each(|ik| {
+        let seed = [ik % dims[0], root[1], ik / dims[0]];
+        line(1, seed, &dofs_at(seed))
+    })?;
+
+    let n = tile.n_vertices();
+    let mut data = vec![[0f32; 4]; n * dims.iter().product::<usize>()];
+    let results = results.into_inner().expect("results lock");
+    let mut samples = Vec::with_capacity(results.len());
+    let database_index =
+        |v: usize, [i, j, k]: [usize; 3]| i + dims[0] * (j + dims[1] * (k + dims[2] * v));
+    for slot in results {
+        let (record, dofs) = slot.expect("every sample solved");
+        let eq = Equilibrium {
+            coarse: Coarse::from_strain(&record.strain),
+            dofs,
+            energy: record.density * tile.period[0] * tile.period[1],
+            density: record.density,
+            stress: record.stress,
+            pairs: vec![],
+            iterations: record.iterations,
+        };
+        let rows = material_displacements(tile, &eq).map_err(|source| GenerationError::Solve {
+            strain: record.strain,
+            bisections: 0,
+            source,
+        })?;
+        for (v, row) in rows.iter().enumerate() {
+            if !row.iter().all(|x| x.is_finite()) {
+                return Err(GenerationError::NonFinite(record.strain));
+            }
+            data[database_index(v, record.index)] = row.map(|x| x as f32);
+        }
+        samples.push(record);
+    }
+    let database = Database {
+        axes,
+        n_vertices: n,
+        data,
+    };
+    database.validate()?;
+    Ok(Generated {
+        database,
+        samples,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// A finished sample and its DOFs.
+type Solved = (SampleRecord, Vec<f64>);
+
+/// Solves for `target` warm-started at `from` (a strain and its equilibrium DOFs), halving the
+/// step on failure up to `depth` times (so at most `2^depth` sub-steps). Returns the
+/// equilibrium, the Newton iterations and the number of sub-steps.
+pub fn continue_to(
+    tile: &Tile,
+    model: &YarnModel,
+    from: (Strain, &[f64]),
+    target: Strain,
+    depth: usize,
+    settings: &EquilibriumSettings,
+) -> Result<(Equilibrium, usize, usize), GenerationError> {
+    match solve_equilibrium(
+        tile,
+        model,
+        Coarse::from_strain(&target),
+        Some(from.1),
+        settings,
+    ) {
+        Ok(eq) => {
+            let iterations = eq.iterations;
+            Ok((eq, iterations, 1))
+        }
+        Err(source) if depth == 0 => Err(GenerationError::Solve {
+            strain: target,
+            bisections: 0,
+            source,
+        }),
+        Err(_) => {
+            let mid = Strain {
+                sx: 0.5 * (from.0.sx + target.sx),
+                sa: 0.5 * (from.0.sa + target.sa),
+                sy: 0.5 * (from.0.sy + target.sy),
+            };
+            let bump = |e: GenerationError| match e {
+                GenerationError::Solve {
+                    source, bisections, ..
+                } => GenerationError::Solve {
+                    strain: target,
+                    bisections: bisections + 1,
+                    source,
+                },
+                other => other,
+            };
+            let (half, i1, s1) =
+                continue_to(tile, model, from, mid, depth - 1, settings).map_err(bump)?;
+            let (eq, i2, s2) =
+                continue_to(tile, model, (mid, &half.dofs), target, depth - 1, settings)
+                    .map_err(bump)?;
+            Ok((eq, i1 + i2, s1 + s2))
+        }
+    }
+}
+
+/// Index of the sample closest to zero.
+fn nearest_to_zero(values: &[f64]) -> usize {
+    (0..values.len())
+        .min_by(|&a, &b| values[a].abs().total_cmp(&values[b].abs()))
+        .unwrap_or(0)
+}
+
+/// The sample store of a resumable generation (a no-op without a directory).
+struct Checkpoint {
+    dir: Option<PathBuf>,
+}
+
+const CHECKPOINT_MAGIC: &[u8; 8] = b"YWDBCK01";
+const FINGERPRINT_FILE: &str = "fingerprint.txt";
+
+impl Checkpoint {
+    fn open(
+        dir: Option<&Path>,
+        tile: &Tile,
+        model: &YarnModel,
+        axes: &[Vec<f64>; 3],
+        settings: &DatabaseSettings,
+    ) -> Result<Self, GenerationError> {
+        let Some(dir) = dir else {
+            return Ok(Self { dir: None });
+        };
+        let problem = |path: &Path, problem: String| GenerationError::Checkpoint {
+            path: path.to_path_buf(),
+            problem,
+        };
+        std::fs::create_dir_all(dir).map_err(|e| problem(dir, e.to_string()))?;
+        let fingerprint = format!(
+            "{:016x}\n",
+            fnv1a(format!("{tile:?}|{model:?}|{axes:?}|{settings:?}|{AXIS_NAMES:?}").as_bytes())
+        );
+        let path = dir.join(FINGERPRINT_FILE);
+        match std::fs::read_to_string(&path) {
+            Ok(existing) if existing == fingerprint => {}
+            Ok(_) => {
+                return Err(problem(
+                    &path,
+                    "was written for different inputs (tile, model, axes or settings); \
+                     remove the checkpoint directory or use the original inputs"
+                        .into(),
+                ));
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                std::fs::write(&path, &fingerprint).map_err(|e| problem(&path, e.to_string()))?;
+            }
+            Err(e) => return Err(problem(&path, e.to_string())),
+        }
+        Ok(Self {
+            dir: Some(dir.to_path_buf()),
+        })
+    }
+
+    fn path(&self, index: [usize; 3]) -> Option<PathBuf> {
+        let [i, j, k] = index;
+        self.dir
+            .as_ref()
+            .map(|d| d.join(format!("sample-{i:02}-{j:02}-{k:02}.bin")))
+    }
+
+    /// Layout: magic, then little-endian f64s: density, stress (4, column-major),
+    /// iterations, substeps, seconds, number of DOFs, DOFs.
+    fn save(&self, record: &SampleRecord, dofs: &[f64]) -> Result<(), GenerationError> {
+        let Some(path) = self.path(record.index) else {
+            return Ok(());
+        };
+        let mut bytes = CHECKPOINT_MAGIC.to_vec();
+        let header = [
+            record.density,
+            record.stress[(0, 0)],
+            record.stress[(1, 0)],
+            record.stress[(0, 1)],
+            record.stress[(1, 1)],
+            record.iterations as f64,
+            record.substeps as f64,
+            record.seconds,
+            dofs.len() as f64,
+        ];
+        for v in header.iter().chain(dofs) {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        let tmp = path.with_extension("tmp");
+        std::fs::write(&tmp, &bytes)
+            .and_then(|()| std::fs::rename(&tmp, &path))
+            .map_err(|e| GenerationError::Checkpoint {
+                path: path.clone(),
+                problem: e.to_string(),
+            })
+    }
+
+    fn load(
+        &self,
+        index: [usize; 3],
+        strain: Strain,
+        tile: &Tile,
+    ) -> Result<Option<(SampleRecord, Vec<f64>)>, GenerationError> {
+        let Some(path) = self.path(index) else {
+            return Ok(None);
+        };
+        let bytes = match std::fs::read(&path) {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => {
+                return Err(GenerationError::Checkpoint {
+                    path,
+                    problem: e.to_string(),
+                });
+            }
+        };
+        let bad = |problem: &str| GenerationError::Checkpoint {
+            path: path.clone(),
+            problem: problem.to_string(),
+        };
+        let body = bytes
+            .strip_prefix(CHECKPOINT_MAGIC.as_slice())
+            .ok_or_else(|| bad("not a sample checkpoint (bad magic)"))?;
+        if body.len() % 8 != 0 || body.len() < 9 * 8 {
+            return Err(bad("truncated"));
+        }
+        let values: Vec<f64> = body
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+            .collect();
+        let n_dofs = 4 * tile.n_vertices();
+        if values[8] != n_dofs as f64 || values.len() != 9 + n_dofs {
+            return Err(bad(&format!("expected {n_dofs} DOFs")));
+        }
+        if !values.iter().all(|v| v.is_finite()) {
+            return Err(bad("contains non-finite values"));
+        }
+        let record = SampleRecord {
+            index,
+            strain,
+            density: values[0],
+            stress: Matrix2::new(values[1], values[3], values[2], values[4]),
+            iterations: values[5] as usize,
+            substeps: values[6] as usize,
+            seconds: 0.0,
+            resumed: true,
+        };
+        Ok(Some((record, values[9..].to_vec())))
+    }
+}
+
+/// FNV-1a, 64 bit (a stable fingerprint, not a cryptographic hash).
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// `n` samples of `[lo, hi]`, uniform.
+pub fn uniform_axis(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    match n {
+        0 => vec![],
+        1 => vec![0.5 * (lo + hi)],
+        _ => (0..n)
+            .map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64)
+            .collect(),
+    }
+}

@@ -1,0 +1,287 @@
+//! `sim-periodic`: relax a tile, compute uniaxial curves, or generate a displacement database,
+//! from a TOML config (see the library's `config` module for the schema).
+//!
+//! ```text
+//! sim-periodic relax    run.toml   # out/relaxed.pyp, out/manifest-relax.json
+//! sim-periodic curve    run.toml   # out/curve-<direction>.csv, out/manifest-curve.json
+//! sim-periodic database run.toml   # out/database/{axes.txt,data.npy}, out/pattern.pyp,
+//!                                  # out/samples.csv, out/manifest-database.json
+//! ```
+//!
+//! `database` checkpoints every sample into `out/checkpoint/`; rerunning the same command after
+//! an interruption resumes from there.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+
+use sim_periodic::config::Config;
+use sim_periodic::curves::{CurveSettings, uniaxial_curve};
+use sim_periodic::database::{DatabaseSettings, generate, relax_period, relax_reference};
+use sim_periodic::pyp::{read_pyp, write_pyp};
+
+#[derive(Parser)]
+#[command(
+    name = "sim-periodic",
+    version,
+    about = "Periodic yarn tiles: relax, curves, databases"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Relax the tile at zero strain and write it as `.pyp`.
+    Relax {
+        /// TOML config.
+        config: PathBuf,
+    },
+    /// Uniaxial stress–strain curves with zero orthogonal stress.
+    Curve {
+        /// TOML config.
+        config: PathBuf,
+    },
+    /// Displacement database ΔQ(sx, sa, sy) (resumable).
+    Database {
+        /// TOML config.
+        config: PathBuf,
+    },
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Relax { config } => relax(&config),
+        Command::Curve { config } => curve(&config),
+        Command::Database { config } => database(&config),
+    }
+}
+
+struct Setup {
+    config: Config,
+    tile: sim_periodic::tile::Tile,
+    model: sim_periodic::periodic::YarnModel,
+}
+
+fn setup(path: &Path) -> Result<Setup> {
+    let config = Config::read(path)?;
+    let read = read_pyp(&config.tile)?;
+    for block in &read.defaulted {
+        eprintln!(
+            "note: {} has no {} block; using its default",
+            config.tile.display(),
+            block.name()
+        );
+    }
+    let model = config.model(read.tile.radius, path)?;
+    std::fs::create_dir_all(&config.out)
+        .with_context(|| format!("creating {}", config.out.display()))?;
+    Ok(Setup {
+        config,
+        tile: read.tile,
+        model,
+    })
+}
+
+fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))
+}
+
+fn bar(len: u64, msg: &'static str) -> ProgressBar {
+    let style = ProgressStyle::with_template("{msg:10} [{bar:30}] {pos}/{len} {elapsed} eta {eta}")
+        .expect("valid template")
+        .progress_chars("=> ");
+    ProgressBar::new(len).with_style(style).with_message(msg)
+}
+
+/// The reference tile of `curve` and `database`: relaxed at zero strain, with its period
+/// relaxed to zero normal stress unless the config says otherwise.
+fn reference(
+    s: &Setup,
+    settings: &sim_periodic::periodic::EquilibriumSettings,
+) -> Result<sim_periodic::tile::Tile> {
+    if s.config.relax_period {
+        let (tile, period) = relax_period(&s.tile, &s.model, settings, 1e-6)?;
+        eprintln!(
+            "period relaxed by ({:.4}, {:.4}) in {} solves",
+            period.stretch[0], period.stretch[1], period.solves
+        );
+        Ok(tile)
+    } else {
+        Ok(relax_reference(&s.tile, &s.model, settings)?.0)
+    }
+}
+
+fn relax(path: &Path) -> Result<()> {
+    let s = setup(path)?;
+    let t = Instant::now();
+    let (relaxed, report) = relax_reference(&s.tile, &s.model, &s.config.equilibrium())?;
+    let out = s.config.out.join("relaxed.pyp");
+    write_pyp(&relaxed, &out)?;
+    write_json(
+        &s.config.out.join("manifest-relax.json"),
+        &json!({
+            "command": "relax",
+            "config": path.display().to_string(),
+            "tile": s.config.tile.display().to_string(),
+            "model": format!("{:?}", s.model),
+            "newton_iterations": report.iterations,
+            "energy_density_j_per_m2": report.density,
+            "seconds": t.elapsed().as_secs_f64(),
+        }),
+    )?;
+    println!(
+        "relaxed {} vertices in {} Newton iterations ({:.2} s) -> {}",
+        s.tile.n_vertices(),
+        report.total_iterations(),
+        t.elapsed().as_secs_f64(),
+        out.display()
+    );
+    Ok(())
+}
+
+fn curve(path: &Path) -> Result<()> {
+    let s = setup(path)?;
+    let (directions, stretches) = s.config.curve(path)?;
+    let settings = CurveSettings {
+        equilibrium: s.config.equilibrium(),
+        ..CurveSettings::default()
+    };
+    let t = Instant::now();
+    let relaxed = reference(&s, &settings.equilibrium)?;
+    let progress = bar(directions.len() as u64, "curves");
+    let mut files = Vec::new();
+    for d in directions {
+        let points = uniaxial_curve(&relaxed, &s.model, d, &stretches, &settings)?;
+        let file = s.config.out.join(format!("curve-{}.csv", d.name()));
+        let mut f =
+            std::fs::File::create(&file).with_context(|| format!("creating {}", file.display()))?;
+        writeln!(
+            f,
+            "s,c,sigma_s_n_per_m,sigma_c_n_per_m,psi_j_per_m2,solves,newton_iterations"
+        )?;
+        for p in &points {
+            if ![p.s, p.c, p.sigma_s, p.sigma_c, p.density]
+                .iter()
+                .all(|v| v.is_finite())
+            {
+                bail!("non-finite curve point at s = {} ({})", p.s, d.name());
+            }
+            writeln!(
+                f,
+                "{},{},{},{},{},{},{}",
+                p.s, p.c, p.sigma_s, p.sigma_c, p.density, p.solves, p.iterations
+            )?;
+        }
+        files.push(file.display().to_string());
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+    write_json(
+        &s.config.out.join("manifest-curve.json"),
+        &json!({
+            "command": "curve",
+            "config": path.display().to_string(),
+            "tile": s.config.tile.display().to_string(),
+            "model": format!("{:?}", s.model),
+            "stretches": stretches,
+            "files": files,
+            "seconds": t.elapsed().as_secs_f64(),
+        }),
+    )?;
+    println!("curves written to {}", s.config.out.display());
+    Ok(())
+}
+
+fn database(path: &Path) -> Result<()> {
+    let s = setup(path)?;
+    let settings = DatabaseSettings {
+        equilibrium: s.config.equilibrium(),
+        ..DatabaseSettings::default()
+    };
+    let db = &s.config.database;
+    let axes = [db.sx.values(), db.sa.values(), db.sy.values()];
+    let t = Instant::now();
+    let relaxed = reference(&s, &settings.equilibrium)?;
+    let total: usize = axes.iter().map(Vec::len).product();
+    let progress = bar(total as u64, "samples");
+    let checkpoint = s.config.out.join("checkpoint");
+    let generated = generate(
+        &relaxed,
+        &s.model,
+        axes.clone(),
+        &settings,
+        Some(&checkpoint),
+        &|_| progress.inc(1),
+    )?;
+    progress.finish_and_clear();
+    let db_dir = s.config.out.join("database");
+    generated.database.write(&db_dir)?;
+    write_pyp(&relaxed, s.config.out.join("pattern.pyp"))?;
+    let samples_file = s.config.out.join("samples.csv");
+    let mut f = std::fs::File::create(&samples_file)
+        .with_context(|| format!("creating {}", samples_file.display()))?;
+    writeln!(
+        f,
+        "isx,isa,isy,sx,sa,sy,psi_j_per_m2,p11,p21,p12,p22,newton_iterations,substeps,seconds,resumed"
+    )?;
+    for r in &generated.samples {
+        let p = r.stress;
+        writeln!(
+            f,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            r.index[0],
+            r.index[1],
+            r.index[2],
+            r.strain.sx,
+            r.strain.sa,
+            r.strain.sy,
+            r.density,
+            p[(0, 0)],
+            p[(1, 0)],
+            p[(0, 1)],
+            p[(1, 1)],
+            r.iterations,
+            r.substeps,
+            r.seconds,
+            r.resumed
+        )?;
+    }
+    let resumed = generated.samples.iter().filter(|r| r.resumed).count();
+    let iterations: usize = generated.samples.iter().map(|r| r.iterations).sum();
+    write_json(
+        &s.config.out.join("manifest-database.json"),
+        &json!({
+            "command": "database",
+            "config": path.display().to_string(),
+            "tile": s.config.tile.display().to_string(),
+            "vertices": relaxed.n_vertices(),
+            "axes": { "sx": axes[0], "sa": axes[1], "sy": axes[2] },
+            "model": format!("{:?}", s.model),
+            "newton": format!("{:?}", settings.equilibrium.newton),
+            "max_bisections": settings.max_bisections,
+            "relax_period": s.config.relax_period,
+            "period_m": relaxed.period,
+            "samples": total,
+            "samples_resumed": resumed,
+            "newton_iterations": iterations,
+            "generation_seconds": generated.seconds,
+            "total_seconds": t.elapsed().as_secs_f64(),
+            "threads": rayon::current_num_threads(),
+        }),
+    )?;
+    println!(
+        "{total} samples ({resumed} resumed) in {:.1} s -> {}",
+        generated.seconds,
+        db_dir.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,162 @@
+//! Displacement database generation and uniaxial curves on the real stockinette tile.
+
+use sim_periodic::coarse::{Coarse, Strain};
+use sim_periodic::curves::{CurveSettings, Direction, directional_stress, uniaxial_curve};
+use sim_periodic::database::{
+    DatabaseSettings, GenerationError, generate, relax_period, relax_reference,
+};
+use sim_periodic::periodic::{EquilibriumSettings, YarnModel, solve_equilibrium};
+use sim_periodic::tile::Tile;
+
+fn stockinette() -> Tile {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/patterns/stockinette.pyp"
+    );
+    sim_periodic::pyp::read_pyp(path)
+        .expect("the real tile loads")
+        .tile
+}
+
+fn relaxed() -> (Tile, YarnModel) {
+    let tile = stockinette();
+    let model = YarnModel::default_for_radius(tile.radius);
+    let (relaxed, _) = relax_reference(&tile, &model, &EquilibriumSettings::default()).unwrap();
+    (relaxed, model)
+}
+
+fn scratch_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+#[test]
+fn database_is_zero_at_rest_matches_direct_solves_and_resumes() {
+    let (tile, model) = relaxed();
+    let settings = DatabaseSettings::default();
+    let axes = [vec![0.0, 0.1], vec![-0.1, 0.0], vec![0.0]];
+    let dir = scratch_dir("database-resume");
+    let first = generate(&tile, &model, axes.clone(), &settings, Some(&dir), &|_| {}).unwrap();
+    let db = &first.database;
+    assert_eq!(db.n_vertices, tile.n_vertices());
+    assert_eq!(first.samples.len(), 4);
+
+    // At zero strain the relaxed reference does not move (issue: below 1e-6 m).
+    let max_at_rest = (0..db.n_vertices)
+        .map(|v| {
+            let r = db.get(v, 0, 1, 0).unwrap();
+            (r[0].abs()).max(r[1].abs()).max(r[2].abs())
+        })
+        .fold(0.0f32, f32::max);
+    eprintln!("max |ΔQ| at zero strain: {max_at_rest:e} m");
+    assert!(max_at_rest < 1e-6, "{max_at_rest}");
+
+    // A sample reproduces an independent solve from rest: F (X + ΔQ) = F X + ũ.
+    let strain = Strain {
+        sx: 0.1,
+        sa: -0.1,
+        sy: 0.0,
+    };
+    let coarse = Coarse::from_strain(&strain);
+    let eq =
+        solve_equilibrium(&tile, &model, coarse, None, &EquilibriumSettings::default()).unwrap();
+    let f3 = coarse.f3();
+    let mut worst = 0.0f64;
+    for v in 0..tile.n_vertices() {
+        let r = db.get(v, 1, 0, 0).unwrap();
+        let dq = nalgebra::Vector3::new(r[0] as f64, r[1] as f64, r[2] as f64);
+        let from_db = f3 * (tile.positions[v] + dq);
+        let direct = f3 * tile.positions[v]
+            + nalgebra::Vector3::new(eq.dofs[3 * v], eq.dofs[3 * v + 1], eq.dofs[3 * v + 2]);
+        worst = worst.max((from_db - direct).norm());
+    }
+    eprintln!("database vs direct solve: {:.3e} R", worst / tile.radius);
+    assert!(worst < 1e-5 * tile.radius, "{worst}");
+
+    // Resume: remove one sample's checkpoint; the rerun solves only that one, same result.
+    let removed = dir.join("sample-01-00-00.bin");
+    std::fs::remove_file(&removed).unwrap();
+    let second = generate(&tile, &model, axes.clone(), &settings, Some(&dir), &|_| {}).unwrap();
+    let resumed = second.samples.iter().filter(|s| s.resumed).count();
+    assert_eq!(resumed, 3);
+    assert_eq!(second.database, first.database);
+
+    // A checkpoint made for other inputs is refused.
+    let other = [vec![0.0, 0.2], vec![-0.1, 0.0], vec![0.0]];
+    let err = generate(&tile, &model, other, &settings, Some(&dir), &|_| {}).unwrap_err();
+    assert!(matches!(err, GenerationError::Checkpoint { .. }));
+    assert!(err.to_string().contains("different inputs"), "{err}");
+}
+
+#[test]
+fn inadmissible_or_malformed_axes_are_rejected() {
+    let (tile, model) = relaxed();
+    let settings = DatabaseSettings::default();
+    let err = generate(
+        &tile,
+        &model,
+        [vec![0.0], vec![0.0, 1.0], vec![0.0]],
+        &settings,
+        None,
+        &|_| {},
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("not admissible"), "{err}");
+    let err = generate(
+        &tile,
+        &model,
+        [vec![0.1, 0.0], vec![0.0], vec![0.0]],
+        &settings,
+        None,
+        &|_| {},
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("increasing"), "{err}");
+}
+
+#[test]
+fn uniaxial_curve_has_zero_orthogonal_stress_and_stress_is_dpsi_ds() {
+    let tile = stockinette();
+    let model = YarnModel::default_for_radius(tile.radius);
+    let (tile, period) =
+        relax_period(&tile, &model, &EquilibriumSettings::default(), 1e-6).unwrap();
+    eprintln!(
+        "period stretch {:?}, remaining stress {}",
+        period.stretch, period.stress
+    );
+    assert!(period.stress[(0, 0)].abs() <= 1e-6 && period.stress[(1, 1)].abs() <= 1e-6);
+    let settings = CurveSettings::default();
+    let h = 0.005;
+    let s = [0.0, 0.05, 0.1 - h, 0.1, 0.1 + h];
+    let curve = uniaxial_curve(&tile, &model, Direction::Weft, &s, &settings).unwrap();
+    for p in &curve {
+        assert!(
+            p.sigma_c.abs() <= settings.stress_abs_tol + settings.stress_rel_tol * p.sigma_s.abs()
+        );
+        eprintln!(
+            "s {:.3} c {:.5} σ_s {:.5} N/m, {} solves",
+            p.s, p.c, p.sigma_s, p.solves
+        );
+    }
+    // From a stress-free start; knits narrow when stretched, and stiffen.
+    assert!(curve[0].sigma_s.abs() < 1e-4 && curve[0].c.abs() < 1e-4);
+    assert!(curve[3].c > 0.0);
+    assert!(curve[3].sigma_s > curve[1].sigma_s && curve[1].sigma_s > curve[0].sigma_s);
+    // With ∂Ψ/∂c = 0 along the curve, dΨ/ds = ∂Ψ/∂s = σ_s.
+    let fd = (curve[4].density - curve[2].density) / (2.0 * h);
+    let rel = (fd - curve[3].sigma_s).abs() / curve[3].sigma_s.abs();
+    eprintln!("dΨ/ds by differences vs σ_s: {rel:.2e} relative");
+    assert!(rel < 1e-3, "{fd} vs {}", curve[3].sigma_s);
+    // The returned point is an equilibrium whose orthogonal stress is the one reported.
+    let eq = solve_equilibrium(
+        &tile,
+        &model,
+        Coarse::uniaxial(curve[3].s, curve[3].c, 0.0),
+        None,
+        &EquilibriumSettings::default(),
+    )
+    .unwrap();
+    let (ss, _) = directional_stress(&eq, 0.0);
+    assert!((ss - curve[3].sigma_s).abs() < 1e-6 * ss.abs());
+}
