@@ -20,7 +20,7 @@
 //! simpson_intervals = 2         # contact quadrature intervals per edge (even)
 //!
 //! [solver]
-//! gradient_abs_tol = 1e-11      # J/m
+//! gradient_abs_tol = 1e-9       # J/m (N)
 //! gradient_rel_tol = 1e-9
 //! max_iterations = 200
 //!

@@ -289,3 +289,69 @@ fn root_find(
         solves,
     })
 }
+
+/// One point of a bending curve.
+#[derive(Clone, Debug)]
+pub struct BendingPoint {
+    /// Curvature κ (1/m).
+    pub kappa: f64,
+    /// Energy density Ψ (J/m²) at κ.
+    pub density: f64,
+    /// Bending stress `σ_κ = dΨ/dκ` (N = J/m), by central differences of the equilibrium
+    /// energy density over `κ ± h`.
+    pub moment: f64,
+}
+
+/// The bending curve of `tile` curved along `axis` (0 = x / weft, 1 = y / warp) at the
+/// curvatures `kappas` (1/m, solved in order with warm starts), with the bending stress
+/// `dΨ/dκ` from central differences with step `h` (1/m). In-plane the tile is unstretched.
+pub fn bending_curve(
+    tile: &Tile,
+    model: &YarnModel,
+    axis: usize,
+    kappas: &[f64],
+    h: f64,
+    settings: &EquilibriumSettings,
+) -> Result<Vec<BendingPoint>, CurveError> {
+    if axis > 1 || !(h > 0.0 && h.is_finite()) {
+        return Err(CurveError::Invalid(format!(
+            "bending axis must be 0 or 1 and the step positive (got {axis}, {h})"
+        )));
+    }
+    let name = if axis == 0 {
+        "weft bending"
+    } else {
+        "warp bending"
+    };
+    let mut warm: Option<Vec<f64>> = None;
+    let mut solve = |k: f64, warm: &mut Option<Vec<f64>>| -> Result<Equilibrium, CurveError> {
+        let coarse = Coarse::identity().bent(axis, k);
+        let eq = solve_equilibrium(tile, model, coarse, warm.as_deref(), settings).map_err(
+            |source| CurveError::Solve {
+                direction: name,
+                s: k,
+                c: 0.0,
+                source,
+            },
+        )?;
+        *warm = Some(eq.dofs.clone());
+        Ok(eq)
+    };
+    let mut out = Vec::with_capacity(kappas.len());
+    for &k in kappas {
+        if !k.is_finite() {
+            return Err(CurveError::Invalid(format!("curvature {k} is not finite")));
+        }
+        let centre = solve(k, &mut warm)?;
+        let mut side = warm.clone();
+        let plus = solve(k + h, &mut side)?;
+        let mut side = warm.clone();
+        let minus = solve(k - h, &mut side)?;
+        out.push(BendingPoint {
+            kappa: k,
+            density: centre.density,
+            moment: (plus.density - minus.density) / (2.0 * h),
+        });
+    }
+    Ok(out)
+}

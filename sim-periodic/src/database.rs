@@ -210,9 +210,7 @@ fn relax_period_once(
     let mut solves = 0;
     let mut warm: Option<Vec<f64>> = None;
     let mut stress_at = |ab: [f64; 2], warm: &mut Option<Vec<f64>>| {
-        let coarse = Coarse {
-            f: Matrix2::new(ab[0], 0.0, 0.0, ab[1]),
-        };
+        let coarse = Coarse::in_plane(Matrix2::new(ab[0], 0.0, 0.0, ab[1]));
         solves += 1;
         let eq = solve_equilibrium(&tile, model, coarse, warm.as_deref(), settings).map_err(
             |source| GenerationError::Solve {

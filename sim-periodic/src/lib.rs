@@ -16,14 +16,15 @@
 //! | [`tile`] | the periodic tile model (vertices, periodic edges, rest shape, reference frames) |
 //! | [`pyp`] | `.pyp` read/write with located errors |
 //! | [`madypg`] | displacement database layout (`axes.txt` + `data.npy`) |
-//! | [`coarse`] | coarse in-plane deformation from seed 004 strains or uniaxial (s, c) |
+//! | [`coarse`] | coarse deformation: in-plane from seed 004 strains or uniaxial (s, c), optional single curvature |
 //! | [`config`] | TOML configuration of the `sim-periodic` command line |
-//! | [`curves`] | uniaxial curves {s, c, σ_s} along weft / bias / warp with a root-find for zero orthogonal stress |
+//! | [`curves`] | uniaxial curves {s, c, σ_s} along weft / bias / warp with a root-find for zero orthogonal stress; bending curves {κ, Ψ, dΨ/dκ} |
 //! | [`database`] | displacement database generation: relaxed reference, continuation over the strain grid, pullback (Eq. 18), resumable checkpoints |
 //! | [`periodic`] | the tile energy under a coarse deformation, constraints, equilibrium, stress |
 //! | [`patterns`] | procedural pattern library: tile builder from yarn polylines, knit and weave guesses, relaxation |
 //!
-//! Status: bending deformations (II) are not implemented yet (in-plane only).
+//! Bending is single curvature along either tile axis (the tile rolled onto a cylinder,
+//! [`coarse::Curvature`]); databases are in-plane (sx, sa, sy) only.
 
 pub mod coarse;
 pub mod config;

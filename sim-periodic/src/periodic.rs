@@ -2,7 +2,9 @@
 //! (seed 002 §6–7.1, seed 004 §3.1, after Sperl et al. 2020).
 //!
 //! **Kinematics.** Vertex positions are `x_v = F X_v + ũ_v` with `F` the coarse map
-//! ([`Coarse::f3`]), `X_v` the rest position and `ũ_v` the periodic fluctuation. An edge ending
+//! ([`Coarse::f3`]), `X_v` the rest position and `ũ_v` the periodic fluctuation. On a bent
+//! coarse surface ([`Coarse::curvature`]) they are `x̄(X_v) + R(X_v) ũ_v` ([`Coarse::map`],
+//! [`Coarse::frame`]): the fluctuation lives in the local frame and rolls with the surface. An edge ending
 //! at the copy of `v₁` shifted by `(dx, dy)` periods ends at `F (X_{v₁} + dx pₓ e₁ + dy p_y e₂)
 //! + ũ_{v₁}`. DOFs: the fluctuations `ũ_v` (3 per vertex, at `3v..3v+3`) followed by the twist
 //! angle θ of every edge (at `3n + e`).
@@ -23,7 +25,8 @@
 
 use crate::coarse::Coarse;
 use crate::tile::{Tile, TileError, Topology};
-use nalgebra::{Matrix2, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix3, SVector, Vector2, Vector3};
+use rod::Stencil;
 use rod::contact::{BarrierPhase, EdgeContact, Simpson, closest_points};
 use rod::geometry::Frame;
 use rod::material_bending::MaterialBending;
@@ -116,8 +119,11 @@ struct Entry {
     term: Term,
     dofs: Vec<usize>,
     points: Vec<Point>,
-    /// `F (X_v + shift)` of each point followed by zeros for twist DOFs (the affine part).
+    /// `x̄(X_v + shift)` of each point followed by zeros for twist DOFs (the coarse part).
     offset: Vec<f64>,
+    /// Local frame `R` of each point when the coarse surface is bent (positions are
+    /// `x̄ + R ũ`); empty when flat (`R = I`).
+    frames: Vec<Matrix3<f64>>,
 }
 
 /// An unordered pair of edges in contact: edge `b` taken in the image shifted by `image`.
@@ -175,6 +181,7 @@ impl<'t> PeriodicTile<'t> {
                 dofs,
                 points: vec![(edge.v0, [0, 0]), (edge.v1, edge.shift)],
                 offset: vec![],
+                frames: vec![],
             });
         }
         for v in 0..n {
@@ -199,6 +206,7 @@ impl<'t> PeriodicTile<'t> {
                 dofs: dofs.clone(),
                 points: points.clone(),
                 offset: vec![],
+                frames: vec![],
             });
             if model.twist > 0.0 {
                 let twist = Twist {
@@ -213,6 +221,7 @@ impl<'t> PeriodicTile<'t> {
                     dofs,
                     points,
                     offset: vec![],
+                    frames: vec![],
                 });
             }
         }
@@ -236,6 +245,7 @@ impl<'t> PeriodicTile<'t> {
                 dofs,
                 points,
                 offset: vec![],
+                frames: vec![],
             });
         }
         let mut out = Self {
@@ -252,12 +262,16 @@ impl<'t> PeriodicTile<'t> {
     /// Changes the coarse deformation (the stencils and the sparsity pattern are unchanged).
     pub fn set_coarse(&mut self, coarse: Coarse) {
         self.coarse = coarse;
-        let f3 = coarse.f3();
+        let bent = coarse.curvature.is_some_and(|c| c.kappa != 0.0);
         for entry in &mut self.entries {
             entry.offset.clear();
+            entry.frames.clear();
             for &(v, shift) in &entry.points {
                 let y = self.tile.positions[v] + self.tile.period_offset(shift);
-                entry.offset.extend((f3 * y).iter());
+                entry.offset.extend(coarse.map(&y).iter());
+                if bent {
+                    entry.frames.push(coarse.frame(&y));
+                }
             }
             entry.offset.resize(entry.dofs.len(), 0.0);
         }
@@ -275,12 +289,14 @@ impl<'t> PeriodicTile<'t> {
 
     /// Current vertex positions `F X_v + ũ_v` (m).
     pub fn positions(&self, x: &[f64]) -> Vec<Vector3<f64>> {
-        let f3 = self.coarse.f3();
+        let c = &self.coarse;
         self.tile
             .positions
             .iter()
             .enumerate()
-            .map(|(v, p)| f3 * p + Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]))
+            .map(|(v, p)| {
+                c.map(p) + c.frame(p) * Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])
+            })
             .collect()
     }
 
@@ -340,21 +356,30 @@ impl<'t> PeriodicTile<'t> {
     }
 
     /// `∂Ψ/∂F₂` (Pa·m = N/m) gathered from the stencil forces (seed 002 Eq. 10): with positions
-    /// `F Y_k + ũ`, `∂E/∂F = Σ_k g_k Y_kᵀ` by the chain rule; at equilibrium (∂E/∂ũ = 0) it is
-    /// the derivative of the equilibrium energy density with respect to `F`.
+    /// `x̄(Y_k) + R ũ` and `p = F Y_k`, `∂E/∂F = Σ_k (J_kᵀ g_k) Y_kᵀ` by the chain rule, `J_k` the
+    /// Jacobian of `p ↦ φ(p) + R(p) ũ` ([`Coarse::map_jacobian`], the identity when flat); at
+    /// equilibrium (∂E/∂ũ = 0) it is the derivative of the equilibrium energy density with
+    /// respect to `F` at fixed curvature.
     pub fn stress(&self, x: &[f64]) -> Matrix2<f64> {
         let mut p = Matrix2::zeros();
-        let mut grad = Vec::new();
         for k in 0..self.entries.len() {
             let entry = &self.entries[k];
-            grad.clear();
-            grad.resize(entry.dofs.len(), 0.0);
-            self.eval_stencil(k, x, &mut grad, None);
+            // The stencil's gradient with respect to its point positions.
+            let q = self.local_positions(entry, x);
+            let g = self.position_gradient(k, &q);
             for (i, &(v, shift)) in entry.points.iter().enumerate() {
                 let y = self.tile.positions[v] + self.tile.period_offset(shift);
+                let u = Vector3::new(
+                    x[entry.dofs[3 * i]],
+                    x[entry.dofs[3 * i + 1]],
+                    x[entry.dofs[3 * i + 2]],
+                );
+                // ∂x/∂F_rc = J e_r Y_c with J the Jacobian of p ↦ φ(p) + R(p) ũ (I when flat).
+                let gj = self.coarse.map_jacobian(&y, &u).transpose()
+                    * Vector3::new(g[3 * i], g[3 * i + 1], g[3 * i + 2]);
                 for r in 0..2 {
                     for c in 0..2 {
-                        p[(r, c)] += grad[3 * i + r] * y[c];
+                        p[(r, c)] += gj[r] * y[c];
                     }
                 }
             }
@@ -371,11 +396,10 @@ impl<'t> PeriodicTile<'t> {
         margin: f64,
     ) -> Result<Vec<ContactPair>, PeriodicError> {
         let topology = tile.topology()?;
-        let f3 = coarse.f3();
         let n = tile.n_vertices();
         let pos = |v: usize, shift: [i32; 2]| {
-            f3 * (tile.positions[v] + tile.period_offset(shift))
-                + Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])
+            let y = tile.positions[v] + tile.period_offset(shift);
+            coarse.map(&y) + coarse.frame(&y) * Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])
         };
         // Arc position of every edge's start along its loop, loop lengths and total shifts.
         let loops = topology.loops();
@@ -466,6 +490,114 @@ impl<'t> PeriodicTile<'t> {
     }
 }
 
+impl PeriodicTile<'_> {
+    /// The stencil's local vector `q`: point positions `x̄ + R ũ` followed by its twist DOFs.
+    fn local_positions(&self, e: &Entry, x: &[f64]) -> Vec<f64> {
+        let mut q: Vec<f64> = e
+            .dofs
+            .iter()
+            .zip(&e.offset)
+            .map(|(&d, o)| x[d] + o)
+            .collect();
+        for (i, r) in e.frames.iter().enumerate() {
+            let u = Vector3::new(x[e.dofs[3 * i]], x[e.dofs[3 * i + 1]], x[e.dofs[3 * i + 2]]);
+            let p = r * u;
+            for c in 0..3 {
+                q[3 * i + c] = e.offset[3 * i + c] + p[c];
+            }
+        }
+        q
+    }
+
+    fn term_energy(&self, k: usize, q: &[f64]) -> f64 {
+        match &self.entries[k].term {
+            Term::Stretch(s) => s.energy(&SVector::from_column_slice(q)),
+            Term::Bend(s) => s.energy(&SVector::from_column_slice(q)),
+            Term::Twist(s) => s.energy(&SVector::from_column_slice(q)),
+            Term::Contact(s) => s.energy(&SVector::from_column_slice(q)),
+        }
+    }
+
+    /// Energy, gradient and (optionally) Hessian of term `k` at local vector `q`.
+    fn term_eval(&self, k: usize, q: &[f64], hessian: bool) -> (f64, Vec<f64>, Vec<f64>) {
+        fn run<const N: usize>(
+            s: &impl Stencil<N>,
+            q: &[f64],
+            hessian: bool,
+        ) -> (f64, Vec<f64>, Vec<f64>) {
+            let q = SVector::<f64, N>::from_column_slice(q);
+            if hessian {
+                let e = s.eval(&q);
+                (
+                    e.energy,
+                    e.gradient.as_slice().to_vec(),
+                    e.hessian.as_slice().to_vec(),
+                )
+            } else {
+                let (energy, g) = s.energy_and_gradient(&q);
+                (energy, g.as_slice().to_vec(), vec![])
+            }
+        }
+        match &self.entries[k].term {
+            Term::Stretch(s) => run(s, q, hessian),
+            Term::Bend(s) => run(s, q, hessian),
+            Term::Twist(s) => run(s, q, hessian),
+            Term::Contact(s) => run(s, q, hessian),
+        }
+    }
+
+    /// Gradient of term `k` with respect to its local vector `q` (positions, then twists).
+    fn position_gradient(&self, k: usize, q: &[f64]) -> Vec<f64> {
+        self.term_eval(k, q, false).1
+    }
+
+    /// [`Problem::eval_stencil`] on a bent coarse surface: chain rule through the point frames,
+    /// `∂/∂ũ_i = R_iᵀ ∂/∂x_i` and Hessian blocks `R_iᵀ H_ij R_j` (twist DOFs unrotated).
+    fn eval_bent(&self, k: usize, x: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        let e = &self.entries[k];
+        let q = self.local_positions(e, x);
+        let (energy, g, h) = self.term_eval(k, &q, hess.is_some());
+        let n = e.dofs.len();
+        let np = e.frames.len();
+        // Block-diagonal T with R_i for the points and 1 for twist DOFs: grad = Tᵀ g.
+        let t = |row: usize, col: usize| -> f64 {
+            if row / 3 < np && col / 3 < np {
+                if row / 3 == col / 3 {
+                    e.frames[row / 3][(row % 3, col % 3)]
+                } else {
+                    0.0
+                }
+            } else if row == col {
+                1.0
+            } else {
+                0.0
+            }
+        };
+        for j in 0..n {
+            grad[j] = (0..n).map(|i| t(i, j) * g[i]).sum();
+        }
+        if let Some(hout) = hess {
+            // H' = Tᵀ H T (column-major n × n).
+            let mut ht = vec![0.0; n * n];
+            for c in 0..n {
+                for r in 0..n {
+                    let lo = if c / 3 < np { 3 * (c / 3) } else { c };
+                    let hi = if c / 3 < np { lo + 3 } else { c + 1 };
+                    ht[r + n * c] = (lo..hi).map(|m| h[r + n * m] * t(m, c)).sum();
+                }
+            }
+            for c in 0..n {
+                for r in 0..n {
+                    let lo = if r / 3 < np { 3 * (r / 3) } else { r };
+                    let hi = if r / 3 < np { lo + 3 } else { r + 1 };
+                    hout[r + n * c] = (lo..hi).map(|m| t(m, r) * ht[m + n * c]).sum();
+                }
+            }
+        }
+        energy
+    }
+}
+
 impl Problem for PeriodicTile<'_> {
     fn n_dofs(&self) -> usize {
         4 * self.tile.n_vertices()
@@ -478,6 +610,9 @@ impl Problem for PeriodicTile<'_> {
     }
     fn eval_stencil(&self, k: usize, x: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
         let e = &self.entries[k];
+        if !e.frames.is_empty() {
+            return self.eval_bent(k, x, grad, hess);
+        }
         match &e.term {
             Term::Stretch(s) => eval_rod_stencil_offset(s, &e.dofs, &e.offset, x, grad, hess),
             Term::Bend(s) => eval_rod_stencil_offset(s, &e.dofs, &e.offset, x, grad, hess),
@@ -487,6 +622,10 @@ impl Problem for PeriodicTile<'_> {
     }
     fn stencil_energy(&self, k: usize, x: &[f64]) -> f64 {
         let e = &self.entries[k];
+        if !e.frames.is_empty() {
+            let q = self.local_positions(e, x);
+            return self.term_energy(k, &q);
+        }
         match &e.term {
             Term::Stretch(s) => eval_rod_stencil_energy_offset(s, &e.dofs, &e.offset, x),
             Term::Bend(s) => eval_rod_stencil_energy_offset(s, &e.dofs, &e.offset, x),
@@ -529,7 +668,7 @@ impl Default for EquilibriumSettings {
             // 11 Newton iterations this way and 76 with projection (sx = 0.3: 10 vs 98), to the
             // same Ψ; one release run took 0.23 s vs 1.9 s (not a benchmark).
             newton: NewtonSettings {
-                gradient_abs_tol: 1e-11,
+                gradient_abs_tol: 1e-9,
                 gradient_rel_tol: 1e-9,
                 max_iterations: 200,
                 project_spd: false,

@@ -1,0 +1,81 @@
+//! Equilibrium solves per pattern and a small database, in wall time.
+//!
+//! `cargo bench -p sim-periodic`. Each tile is first relaxed (not timed); one iteration solves
+//! it at a 20 % weft stretch from its relaxed state. The database bench generates a 3³ grid
+//! around zero strain for the real stockinette tile.
+
+#![allow(missing_docs)] // criterion_group! generates undocumented items
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use sim_periodic::coarse::{Coarse, Strain};
+use sim_periodic::database::{DatabaseSettings, generate, relax_reference, uniform_axis};
+use sim_periodic::patterns::{Pattern, RelaxSettings, relax};
+use sim_periodic::periodic::{EquilibriumSettings, YarnModel, solve_equilibrium};
+use sim_periodic::tile::Tile;
+
+fn stockinette() -> Tile {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/patterns/stockinette.pyp"
+    );
+    sim_periodic::pyp::read_pyp(path)
+        .expect("the real tile loads")
+        .tile
+}
+
+fn bench(c: &mut Criterion) {
+    let settings = EquilibriumSettings::default();
+    let mut tiles = vec![("stockinette-real".to_string(), stockinette())];
+    for p in Pattern::ALL {
+        let guess = p
+            .generate(&p.default_params(1e-3))
+            .expect("pattern generates");
+        let model = YarnModel::default_for_radius(1e-3);
+        let (tile, _) = relax(&guess, &model, &RelaxSettings::default()).expect("pattern relaxes");
+        tiles.push((p.name().to_string(), tile));
+    }
+    let mut group = c.benchmark_group("equilibrium, sx = 0.2");
+    group.sample_size(10);
+    for (name, tile) in &tiles {
+        let model = YarnModel::default_for_radius(tile.radius);
+        let (tile, _) = relax_reference(tile, &model, &settings).expect("relaxes");
+        let coarse = Coarse::from_strain(&Strain {
+            sx: 0.2,
+            sa: 0.0,
+            sy: 0.0,
+        });
+        let id = format!("{name} ({} vertices)", tile.n_vertices());
+        group.bench_function(id, |b| {
+            b.iter(|| solve_equilibrium(&tile, &model, coarse, None, &settings).expect("converges"))
+        });
+    }
+    group.finish();
+
+    let tile = stockinette();
+    let model = YarnModel::default_for_radius(tile.radius);
+    let (tile, _) = relax_reference(&tile, &model, &settings).expect("relaxes");
+    let axes = [
+        uniform_axis(-0.1, 0.1, 3),
+        uniform_axis(-0.1, 0.1, 3),
+        uniform_axis(-0.1, 0.1, 3),
+    ];
+    let mut group = c.benchmark_group("database");
+    group.sample_size(10);
+    group.bench_function("stockinette-real 3x3x3 in [-0.1, 0.1]", |b| {
+        b.iter(|| {
+            generate(
+                &tile,
+                &model,
+                axes.clone(),
+                &DatabaseSettings::default(),
+                None,
+                &|_| {},
+            )
+            .expect("generates")
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
