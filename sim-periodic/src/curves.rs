@@ -324,7 +324,7 @@ pub fn bending_curve(
         "warp bending"
     };
     let mut warm: Option<Vec<f64>> = None;
-    let mut solve = |k: f64, warm: &mut Option<Vec<f64>>| -> Result<Equilibrium, CurveError> {
+    let solve = |k: f64, warm: &mut Option<Vec<f64>>| -> Result<Equilibrium, CurveError> {
         let coarse = Coarse::identity().bent(axis, k);
         let eq = solve_equilibrium(tile, model, coarse, warm.as_deref(), settings).map_err(
             |source| CurveError::Solve {
