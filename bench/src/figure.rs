@@ -113,7 +113,23 @@ pub struct FigureOutput {
 /// `pub fn spec() -> FigureSpec` and listing it here.
 pub fn all_figures() -> Vec<FigureSpec> {
     use crate::figures::*;
-    vec![rod_cantilever::spec(), rod_convergence::spec()]
+    vec![
+        rod_cantilever::spec(),
+        rod_convergence::spec(),
+        shell_nh_vs_stvk::spec(),
+        shell_fit::spec(),
+        shell_bending_fit::spec(),
+        shell_time_vs_error::spec(),
+        deform_throughput::spec(),
+        deform_compression_clamping::spec(),
+        deform_sampling_density::spec(),
+        deform_naive_vs_mechanics::spec(),
+        deform_time_vs_error::spec(),
+        periodic_curves::spec(),
+        periodic_tiles::spec(),
+        periodic_bending::spec(),
+        periodic_time_vs_error::spec(),
+    ]
 }
 
 /// Formats a relative error as a percentage with three significant digits

@@ -323,11 +323,13 @@ where
         .x_label_area_size(56)
         .y_label_area_size(84)
         .build_cartesian_2d(x_coord, y_coord)?;
+    // A tick at zero computed as a rounding residue (e.g. 2.8e-17) is printed as 0.
+    let (xs, ys) = (zero_snap(&cc.x_range()), zero_snap(&cc.y_range()));
     cc.configure_mesh()
         .x_desc(chart.x_label.as_str())
         .y_desc(chart.y_label.as_str())
-        .x_label_formatter(&|v| tick_label(*v))
-        .y_label_formatter(&|v| tick_label(*v))
+        .x_label_formatter(&|v| tick_label(if v.abs() < xs { 0.0 } else { *v }))
+        .y_label_formatter(&|v| tick_label(if v.abs() < ys { 0.0 } else { *v }))
         .label_style((FONT, 15))
         .axis_desc_style((FONT, 18))
         .light_line_style(BLACK.mix(0.04))
@@ -511,6 +513,16 @@ fn legend_position(chart: &LineChart, x: &Range<f64>, y: &Range<f64>) -> SeriesL
 }
 
 /// Compact tick labels: `0.25`, `1200`, `1e-6`, `2.5e4`.
+/// Values below this magnitude are zero on an axis `range`: 1e-9 of its span when it crosses
+/// zero (linear axes), else 0 (log axes never do).
+fn zero_snap(range: &Range<f64>) -> f64 {
+    if range.start < 0.0 && range.end > 0.0 {
+        1e-9 * (range.end - range.start)
+    } else {
+        0.0
+    }
+}
+
 fn tick_label(v: f64) -> String {
     let a = v.abs();
     if a == 0.0 {

@@ -48,6 +48,11 @@ pub struct DatabaseSettings {
     pub equilibrium: EquilibriumSettings,
     /// How often a failed continuation step may be halved. Default 4 (steps down to 1/16).
     pub max_bisections: usize,
+    /// Newton iterations a warm-started attempt may take before its step is halved instead;
+    /// the last allowed halving gets the full `equilibrium.newton.max_iterations`. Default 200
+    /// (no cap with the default settings): on the stockinette 5³ grid a cap of 40 made the
+    /// jammed corner (−0.2, −0.7, −0.2) fail, while uncapped attempts reach it.
+    pub attempt_iterations: usize,
 }
 
 impl Default for DatabaseSettings {
@@ -55,6 +60,7 @@ impl Default for DatabaseSettings {
         Self {
             equilibrium: EquilibriumSettings::default(),
             max_bisections: 4,
+            attempt_iterations: 200,
         }
     }
 }
@@ -348,21 +354,14 @@ pub fn generate(
                 let t = Instant::now();
                 let coarse = Coarse::from_strain(&strain);
                 let predicted = predicted.and_then(|p| {
-                    solve_equilibrium(tile, model, coarse, Some(&p), &settings.equilibrium).ok()
+                    solve_equilibrium(tile, model, coarse, Some(&p), &settings.attempt()).ok()
                 });
                 let (eq, iterations, substeps) = match predicted {
                     Some(eq) => {
                         let iterations = eq.iterations;
                         (eq, iterations, 1)
                     }
-                    None => continue_to(
-                        tile,
-                        model,
-                        from,
-                        strain,
-                        settings.max_bisections,
-                        &settings.equilibrium,
-                    )?,
+                    None => continue_to(tile, model, from, strain, settings)?,
                 };
                 if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
                     return Err(GenerationError::NonFinite(strain));
@@ -480,23 +479,48 @@ pub fn generate(
 /// A finished sample and its DOFs.
 type Solved = (SampleRecord, Vec<f64>);
 
+impl DatabaseSettings {
+    /// Equilibrium settings of an attempt that may still be halved.
+    fn attempt(&self) -> EquilibriumSettings {
+        let mut s = self.equilibrium.clone();
+        s.newton.max_iterations = s.newton.max_iterations.min(self.attempt_iterations);
+        s
+    }
+}
+
 /// Solves for `target` warm-started at `from` (a strain and its equilibrium DOFs), halving the
-/// step on failure up to `depth` times (so at most `2^depth` sub-steps). Returns the
-/// equilibrium, the Newton iterations and the number of sub-steps.
+/// step when an attempt fails, up to `settings.max_bisections` times (so at most
+/// `2^max_bisections` sub-steps). Returns the equilibrium, the Newton iterations and the
+/// number of sub-steps.
 pub fn continue_to(
     tile: &Tile,
     model: &YarnModel,
     from: (Strain, &[f64]),
     target: Strain,
-    depth: usize,
-    settings: &EquilibriumSettings,
+    settings: &DatabaseSettings,
 ) -> Result<(Equilibrium, usize, usize), GenerationError> {
+    continue_rec(tile, model, from, target, settings.max_bisections, settings)
+}
+
+fn continue_rec(
+    tile: &Tile,
+    model: &YarnModel,
+    from: (Strain, &[f64]),
+    target: Strain,
+    depth: usize,
+    settings: &DatabaseSettings,
+) -> Result<(Equilibrium, usize, usize), GenerationError> {
+    let attempt = if depth == 0 {
+        settings.equilibrium.clone()
+    } else {
+        settings.attempt()
+    };
     match solve_equilibrium(
         tile,
         model,
         Coarse::from_strain(&target),
         Some(from.1),
-        settings,
+        &attempt,
     ) {
         Ok(eq) => {
             let iterations = eq.iterations;
@@ -524,9 +548,9 @@ pub fn continue_to(
                 other => other,
             };
             let (half, i1, s1) =
-                continue_to(tile, model, from, mid, depth - 1, settings).map_err(bump)?;
+                continue_rec(tile, model, from, mid, depth - 1, settings).map_err(bump)?;
             let (eq, i2, s2) =
-                continue_to(tile, model, (mid, &half.dofs), target, depth - 1, settings)
+                continue_rec(tile, model, (mid, &half.dofs), target, depth - 1, settings)
                     .map_err(bump)?;
             Ok((eq, i1 + i2, s1 + s2))
         }

@@ -3,7 +3,7 @@
 //! that says what failed — never a NaN in a result, never a panic.
 
 use sim_periodic::coarse::Strain;
-use sim_periodic::database::{continue_to, relax_reference};
+use sim_periodic::database::{DatabaseSettings, continue_to, relax_reference};
 use sim_periodic::periodic::{Equilibrium, EquilibriumSettings, YarnModel, initial_dofs};
 use sim_periodic::tile::Tile;
 
@@ -26,10 +26,16 @@ fn assert_finite(eq: &Equilibrium) {
 /// Continuation from zero strain to `target` with step halving (up to 2⁴ sub-steps); returns
 /// whether it converged. A failure must say what failed.
 fn reach(tile: &Tile, model: &YarnModel, target: Strain) -> bool {
-    let mut settings = EquilibriumSettings::default();
-    settings.newton.max_iterations = 60; // fail fast and halve the step instead
+    // Attempts fail fast (60 iterations) and halve the step instead; the last halving gets the
+    // same 60.
+    let mut settings = DatabaseSettings {
+        attempt_iterations: 60,
+        max_bisections: 4,
+        ..DatabaseSettings::default()
+    };
+    settings.equilibrium.newton.max_iterations = 60;
     let rest = initial_dofs(tile).unwrap();
-    match continue_to(tile, model, (Strain::ZERO, &rest), target, 4, &settings) {
+    match continue_to(tile, model, (Strain::ZERO, &rest), target, &settings) {
         Ok((eq, iterations, substeps)) => {
             assert_finite(&eq);
             eprintln!("{target:?}: converged, {iterations} Newton iterations in {substeps} steps");

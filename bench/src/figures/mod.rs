@@ -3,5 +3,19 @@
 //! Each module exposes `pub fn spec() -> FigureSpec`; list it in
 //! [`crate::figure::all_figures`].
 
+pub mod deform_compression_clamping;
+pub mod deform_naive_vs_mechanics;
+pub mod deform_real_db;
+pub mod deform_sampling_density;
+pub mod deform_throughput;
+pub mod deform_time_vs_error;
+pub mod periodic_bending;
+pub mod periodic_curves;
+pub mod periodic_tiles;
+pub mod periodic_time_vs_error;
 pub mod rod_cantilever;
 pub mod rod_convergence;
+pub mod shell_bending_fit;
+pub mod shell_fit;
+pub mod shell_nh_vs_stvk;
+pub mod shell_time_vs_error;

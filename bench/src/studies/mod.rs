@@ -1,3 +1,4 @@
 //! Computations behind the figures, kept apart from plotting so tests can call them directly.
 
 pub mod cantilever;
+pub mod periodic;

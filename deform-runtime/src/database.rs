@@ -1,0 +1,287 @@
+//! The displacement database ΔQ(sx, sa, sy) prepared for per-frame lookups (paper 004 §3.3,
+//! §4.4).
+//!
+//! [`RuntimeDatabase`] is built from a [`sim_periodic::madypg::Database`] after checking it
+//! against the pattern (same vertex count, finite values). Storage is converted to the
+//! run-time scalar `T` and kept *texel-interleaved* like an RGBA 3-D texture: for each pattern
+//! vertex one contiguous block of `|SX|·|SA|·|SY|` texels `(Δx, Δy, Δz, Δθ)` in the MADYPG order
+//! `isx + |SX|(isa + |SA| isy)`. One trilinear lookup reads 8 texels of 16 (f32) bytes, two
+//! neighbouring texels per cache line pair, which is why the four components are not split
+//! into separate arrays (the per-yarn-vertex state is structure-of-arrays, see
+//! [`crate::embed::Embedding`]).
+//!
+//! Lookups interpolate trilinearly on the (possibly non-uniform) sample axes and clamp
+//! strains outside the sampled range to the nearest sample (paper 004 §4.4: "constant
+//! extrapolation"), so they never extrapolate.
+
+use sim_periodic::madypg::Database;
+use sim_periodic::tile::Tile;
+
+use crate::error::{DeformError, Result};
+use crate::real::Real;
+
+/// Where a strain value falls on one sample axis: the two bracketing samples and the weight
+/// of the upper one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisWeight<T> {
+    /// Index of the lower sample.
+    pub lo: u32,
+    /// Index of the upper sample (`lo + 1`, or `lo` for a single-sample axis).
+    pub hi: u32,
+    /// Weight of the upper sample in `[0, 1]` (0 below the range, 1 above it).
+    pub t: T,
+}
+
+/// Locates `s` on the strictly increasing `axis` (non-empty), clamping outside the range.
+/// A NaN `s` is treated as the first sample.
+#[inline(always)]
+pub fn locate<T: Real>(axis: &[T], s: T) -> AxisWeight<T> {
+    let n = axis.len();
+    if n < 2 || s.partial_cmp(&axis[0]) != Some(std::cmp::Ordering::Greater) {
+        return AxisWeight {
+            lo: 0,
+            hi: if n < 2 { 0 } else { 1 },
+            t: T::ZERO,
+        };
+    }
+    if s >= axis[n - 1] {
+        return AxisWeight {
+            lo: (n - 2) as u32,
+            hi: (n - 1) as u32,
+            t: T::ONE,
+        };
+    }
+    // axis[0] < s < axis[n-1]: the interval [axis[k], axis[k+1]) containing s.
+    let mut k = 0;
+    while k + 2 < n && axis[k + 1] <= s {
+        k += 1;
+    }
+    let t = (s - axis[k]) / (axis[k + 1] - axis[k]);
+    AxisWeight {
+        lo: k as u32,
+        hi: (k + 1) as u32,
+        t,
+    }
+}
+
+/// A validated displacement database in run-time precision `T`.
+#[derive(Clone, Debug)]
+pub struct RuntimeDatabase<T> {
+    /// Sample values of `sx`, `sa`, `sy` (unitless), strictly increasing.
+    axes: [Vec<T>; 3],
+    /// Number of pattern vertices.
+    n_vertices: usize,
+    /// Texels `(Δx, Δy, Δz, Δθ)` (m, m, m, rad), vertex-major.
+    texels: Vec<[T; 4]>,
+    /// Index of the sample closest to zero strain on each axis.
+    zero_sample: [usize; 3],
+    /// For uniformly spaced axes: `(first sample, 1 / spacing)`, enabling O(1) location.
+    uniform: [Option<(T, T)>; 3],
+    /// When all three axes are uniform with ≥ 2 samples: `(first samples, inverse spacings)`.
+    all_uniform: Option<([T; 3], [T; 3])>,
+}
+
+/// Locates `s` on a uniform axis of `n ≥ 2` samples starting at `a0` with inverse spacing
+/// `inv_h`, clamping outside the range; NaN maps to the first sample.
+#[inline(always)]
+pub fn locate_uniform<T: Real>(n: usize, a0: T, inv_h: T, s: T) -> AxisWeight<T> {
+    let last = T::from_f64((n - 1) as f64);
+    let t = (s - a0) * inv_h;
+    // Comparisons instead of `max`/`min` (cheaper on baseline x86-64); NaN fails `t > 0`.
+    let t = if t > T::ZERO { t } else { T::ZERO };
+    let t = if t < last { t } else { last };
+    // Integer part, at most n − 2 so that `hi` stays in range (t = n − 1 gives weight 1).
+    let k = t.to_index().min(n as u32 - 2);
+    AxisWeight {
+        lo: k,
+        hi: k + 1,
+        t: t - T::from_f64(f64::from(k)),
+    }
+}
+
+impl<T: Real> RuntimeDatabase<T> {
+    /// Converts `db` after checking it against `tile`: vertex counts must agree and every
+    /// value must be finite. The axes are validated by `db.validate()`.
+    pub fn new(db: &Database, tile: &Tile) -> Result<Self> {
+        db.validate()?;
+        if db.n_vertices != tile.positions.len() {
+            return Err(DeformError::VertexCountMismatch {
+                database: db.n_vertices,
+                pattern: tile.positions.len(),
+            });
+        }
+        let per_vertex = db.samples_per_vertex();
+        if let Some((row, values)) = db
+            .data
+            .iter()
+            .enumerate()
+            .find(|(_, r)| r.iter().any(|x| !x.is_finite()))
+        {
+            return Err(DeformError::NonFiniteData {
+                row,
+                vertex: row / per_vertex,
+                values: *values,
+            });
+        }
+        let axes = [0, 1, 2].map(|k| db.axes[k].iter().map(|&a| T::from_f64(a)).collect());
+        let texels = db
+            .data
+            .iter()
+            .map(|r| r.map(|x| T::from_f64(f64::from(x))))
+            .collect();
+        let zero_sample = [0, 1, 2].map(|k| {
+            let axis = &db.axes[k];
+            (0..axis.len())
+                .min_by(|&a, &b| axis[a].abs().total_cmp(&axis[b].abs()))
+                .unwrap_or(0)
+        });
+        let uniform = [0, 1, 2].map(|k| {
+            let a = &db.axes[k];
+            let n = a.len();
+            if n < 2 {
+                return None;
+            }
+            let h = (a[n - 1] - a[0]) / (n - 1) as f64;
+            // Uniform when every sample is within 1e-9 spacings of its regular position.
+            let regular = (0..n).all(|j| (a[j] - (a[0] + j as f64 * h)).abs() <= 1e-9 * h);
+            regular.then(|| (T::from_f64(a[0]), T::from_f64(1.0 / h)))
+        });
+        let all_uniform = match uniform {
+            [Some(x), Some(a), Some(y)] => Some(([x.0, a.0, y.0], [x.1, a.1, y.1])),
+            _ => None,
+        };
+        Ok(Self {
+            axes,
+            n_vertices: db.n_vertices,
+            texels,
+            zero_sample,
+            uniform,
+            all_uniform,
+        })
+    }
+
+    /// Number of pattern vertices.
+    pub fn n_vertices(&self) -> usize {
+        self.n_vertices
+    }
+
+    /// Sample values of axis `k` (0: sx, 1: sa, 2: sy).
+    pub fn axis(&self, k: usize) -> &[T] {
+        &self.axes[k]
+    }
+
+    /// Number of samples per axis `[|SX|, |SA|, |SY|]`.
+    pub fn shape(&self) -> [usize; 3] {
+        [0, 1, 2].map(|k| self.axes[k].len())
+    }
+
+    /// The texels, vertex-major (see the module docs).
+    pub fn texels(&self) -> &[[T; 4]] {
+        &self.texels
+    }
+
+    /// Size of the texel storage in bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.texels.len() * std::mem::size_of::<[T; 4]>()
+    }
+
+    /// For each axis, `(first sample, 1 / spacing)` if the samples are uniformly spaced.
+    pub fn uniform_axes(&self) -> [Option<(T, T)>; 3] {
+        self.uniform
+    }
+
+    /// Index of the sample nearest to zero on each axis.
+    pub fn zero_sample(&self) -> [usize; 3] {
+        self.zero_sample
+    }
+
+    /// Axis weights of the strain `(sx, sa, sy)`, clamped to the sampled range.
+    #[inline(always)]
+    pub fn weights(&self, s: [T; 3]) -> [AxisWeight<T>; 3] {
+        if let Some((a0, inv)) = self.all_uniform {
+            return [
+                locate_uniform(self.axes[0].len(), a0[0], inv[0], s[0]),
+                locate_uniform(self.axes[1].len(), a0[1], inv[1], s[1]),
+                locate_uniform(self.axes[2].len(), a0[2], inv[2], s[2]),
+            ];
+        }
+        [0, 1, 2].map(|k| match self.uniform[k] {
+            Some((a0, inv_h)) => locate_uniform(self.axes[k].len(), a0, inv_h, s[k]),
+            None => locate(&self.axes[k], s[k]),
+        })
+    }
+
+    /// Trilinear interpolation of vertex `vertex`'s displacement at precomputed weights.
+    /// `vertex` must be below [`Self::n_vertices`] (checked by the caller's embedding).
+    #[inline(always)]
+    pub fn interpolate(&self, vertex: usize, w: &[AxisWeight<T>; 3]) -> [T; 4] {
+        let [nx, na, ny] = self.shape();
+        let base = vertex * nx * na * ny;
+        let row = |ia: u32, iy: u32| base + nx * (ia as usize + na * iy as usize);
+        let mut out = [T::ZERO; 4];
+        let corners = [
+            (w[1].lo, w[2].lo, (T::ONE - w[1].t) * (T::ONE - w[2].t)),
+            (w[1].hi, w[2].lo, w[1].t * (T::ONE - w[2].t)),
+            (w[1].lo, w[2].hi, (T::ONE - w[1].t) * w[2].t),
+            (w[1].hi, w[2].hi, w[1].t * w[2].t),
+        ];
+        let (tx0, tx1) = (T::ONE - w[0].t, w[0].t);
+        for (ia, iy, wy) in corners {
+            let r = row(ia, iy);
+            let a = &self.texels[r + w[0].lo as usize];
+            let b = &self.texels[r + w[0].hi as usize];
+            for c in 0..4 {
+                out[c] += wy * (tx0 * a[c] + tx1 * b[c]);
+            }
+        }
+        out
+    }
+
+    /// Displacement `(Δx, Δy, Δz, Δθ)` of pattern vertex `vertex` at strain `(sx, sa, sy)`.
+    #[inline(always)]
+    pub fn lookup(&self, vertex: usize, s: [T; 3]) -> [T; 4] {
+        self.interpolate(vertex, &self.weights(s))
+    }
+
+    /// The stored displacement of every pattern vertex at zero strain (the sample nearest to
+    /// zero on each axis, interpolated at exactly `(0, 0, 0)`); used for faces whose lookup
+    /// is skipped so that skipping does not change results.
+    pub fn rest_displacements(&self) -> Vec<[T; 4]> {
+        (0..self.n_vertices)
+            .map(|v| self.lookup(v, [T::ZERO; 3]))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn locate_clamps_and_interpolates_on_non_uniform_axes() {
+        let axis = [-0.2f64, 0.0, 0.1, 0.5];
+        let w = locate(&axis, -1.0);
+        assert_eq!((w.lo, w.hi, w.t), (0, 1, 0.0));
+        let w = locate(&axis, 2.0);
+        assert_eq!((w.lo, w.hi, w.t), (2, 3, 1.0));
+        let w = locate(&axis, 0.3);
+        assert_eq!((w.lo, w.hi), (2, 3));
+        assert!((w.t - 0.5).abs() < 1e-15);
+        let w = locate(&axis, 0.0);
+        assert_eq!((w.lo, w.hi), (1, 2));
+        assert_eq!(w.t, 0.0);
+        let w = locate(&axis, f64::NAN);
+        assert_eq!((w.lo, w.t), (0, 0.0));
+        // The uniform fast path agrees with the search on a uniform axis.
+        let axis = [-0.2f64, 0.1, 0.4, 0.7, 1.0];
+        for s in [-1.0, -0.2, 0.0, 0.1, 0.25, 0.7, 0.99, 1.0, 3.0, f64::NAN] {
+            let a = locate(&axis, s);
+            let b = locate_uniform(5, -0.2, 1.0 / 0.3, s);
+            let va = axis[a.lo as usize] * (1.0 - a.t) + axis[a.hi as usize] * a.t;
+            let vb = axis[b.lo as usize] * (1.0 - b.t) + axis[b.hi as usize] * b.t;
+            assert!((va - vb).abs() < 1e-12, "s = {s}: {a:?} vs {b:?}");
+        }
+        let w = locate(&[0.5f64], 3.0);
+        assert_eq!((w.lo, w.hi, w.t), (0, 0, 0.0));
+    }
+}

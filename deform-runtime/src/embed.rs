@@ -1,0 +1,327 @@
+//! Precompute: tile the pattern over the mesh's UV space and embed every yarn vertex in a
+//! triangle (paper 004 §4, "As a precomputation ...").
+//!
+//! 1. A background grid in UV space with cells of the pattern period `(px, py)`; every cell
+//!    overlapping the bounding box of a UV triangle receives a copy of the tile (shifted by
+//!    integer periods).
+//! 2. Each copied vertex is located in the UV mesh (bucketed by the same grid); vertices in
+//!    no triangle are cut.
+//! 3. Yarns are followed through the periodic edges (`v0 → v1` shifted by the edge's period
+//!    shift) into polylines that stop where a vertex was cut; polylines whose material
+//!    (rest) length is below `min_fragment_length` are dropped (supplementary S1: aesthetics).
+//! 4. Each kept vertex stores its triangle, its UV offset from the triangle's first corner
+//!    (barycentrics follow from `Dm⁻¹`, and the offset keeps f32 precise far from the UV
+//!    origin), its height `X₃` and its pattern vertex. Vertices are stored curve by curve, so
+//!    every curve is a contiguous range ([`Embedding::curve_offsets`]).
+
+use std::collections::HashMap;
+
+use sim_periodic::tile::Tile;
+
+use crate::error::{DeformError, Result};
+use crate::mesh::RestMesh;
+use crate::real::Real;
+
+/// Options of the precompute.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct EmbedOptions {
+    /// Fragments (open yarn pieces) shorter than this material length are dropped (m).
+    /// Default 0: keep every fragment with at least two vertices.
+    pub min_fragment_length: f64,
+    /// Upper bound on candidate vertices (cells × tile vertices), to fail fast on a wrong UV
+    /// scale instead of exhausting memory. Default 2³¹ − 1.
+    pub max_candidates: u64,
+}
+
+impl Default for EmbedOptions {
+    fn default() -> Self {
+        Self {
+            min_fragment_length: 0.0,
+            max_candidates: u32::MAX as u64 / 2,
+        }
+    }
+}
+
+/// Counters of the precompute.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct EmbedStats {
+    /// Pattern cells copied.
+    pub cells: usize,
+    /// Candidate vertices (cells × tile vertices).
+    pub candidates: usize,
+    /// Candidates outside every triangle (cut).
+    pub cut_outside: usize,
+    /// Vertices dropped with fragments shorter than the minimum length (or single vertices).
+    pub dropped_short: usize,
+    /// Fragments dropped.
+    pub fragments_dropped: usize,
+    /// Kept curves.
+    pub curves: usize,
+    /// Kept closed curves (yarn loops entirely on the mesh).
+    pub closed_curves: usize,
+    /// Kept yarn vertices.
+    pub vertices: usize,
+}
+
+/// The embedded yarn vertices, structure-of-arrays.
+#[derive(Clone, Debug)]
+pub struct Embedding<T> {
+    /// Triangle of each yarn vertex.
+    pub triangle: Vec<u32>,
+    /// UV offset from the triangle's first corner, u component (m).
+    pub du: Vec<T>,
+    /// UV offset from the triangle's first corner, v component (m).
+    pub dv: Vec<T>,
+    /// Height `X₃` above the mid-surface (m).
+    pub height: Vec<T>,
+    /// Pattern (tile) vertex of each yarn vertex.
+    pub tile_vertex: Vec<u32>,
+    /// Rest material position `X` (m) in f64, for tests and naive comparisons.
+    pub material: Vec<[f64; 3]>,
+    /// CSR offsets: curve `c` is vertices `curve_offsets[c]..curve_offsets[c+1]`.
+    pub curve_offsets: Vec<u32>,
+    /// Whether each curve is a closed loop.
+    pub closed: Vec<bool>,
+    /// Precompute counters.
+    pub stats: EmbedStats,
+}
+
+impl<T> Embedding<T> {
+    /// Number of yarn vertices.
+    pub fn len(&self) -> usize {
+        self.triangle.len()
+    }
+
+    /// Whether there are no yarn vertices.
+    pub fn is_empty(&self) -> bool {
+        self.triangle.is_empty()
+    }
+
+    /// Number of curves.
+    pub fn n_curves(&self) -> usize {
+        self.closed.len()
+    }
+}
+
+fn cell_of(x: f64, p: f64) -> i64 {
+    (x / p).floor() as i64
+}
+
+/// Tiles `tile` over `mesh` and embeds the yarn vertices (see the module docs).
+pub fn embed<T: Real>(
+    mesh: &RestMesh,
+    tile: &Tile,
+    options: &EmbedOptions,
+) -> Result<Embedding<T>> {
+    let topology = tile.topology()?;
+    if !(options.min_fragment_length >= 0.0 && options.min_fragment_length.is_finite()) {
+        return Err(DeformError::Option {
+            name: "min_fragment_length",
+            message: format!(
+                "expected a finite length ≥ 0 m, found {}",
+                options.min_fragment_length
+            ),
+        });
+    }
+    let [px, py] = tile.period;
+    let n = tile.positions.len();
+    // 1. Cells overlapping triangle bounding boxes; the same grid buckets triangles.
+    let mut cell_index: HashMap<(i64, i64), u32> = HashMap::new();
+    let mut cells: Vec<(i64, i64)> = Vec::new();
+    let mut bucket_pairs: Vec<(u32, u32)> = Vec::new();
+    let mut candidates: u64 = 0;
+    for (f, t) in mesh.triangles.iter().enumerate() {
+        let uv = t.map(|v| mesh.vertex_uv[v as usize]);
+        let (u0, u1) = (
+            uv.iter().map(|x| x[0]).fold(f64::INFINITY, f64::min),
+            uv.iter().map(|x| x[0]).fold(f64::NEG_INFINITY, f64::max),
+        );
+        let (v0, v1) = (
+            uv.iter().map(|x| x[1]).fold(f64::INFINITY, f64::min),
+            uv.iter().map(|x| x[1]).fold(f64::NEG_INFINITY, f64::max),
+        );
+        let (i0, i1, j0, j1) = (
+            cell_of(u0, px),
+            cell_of(u1, px),
+            cell_of(v0, py),
+            cell_of(v1, py),
+        );
+        let area = ((i1 - i0 + 1) as u64).saturating_mul((j1 - j0 + 1) as u64);
+        if area.saturating_mul(n as u64) > options.max_candidates {
+            return Err(DeformError::Option {
+                name: "uv_scale",
+                message: format!(
+                    "triangle {f} covers {area} pattern cells; more than the candidate limit {} — is the UV scale right?",
+                    options.max_candidates
+                ),
+            });
+        }
+        for i in i0..=i1 {
+            for j in j0..=j1 {
+                let next = cells.len() as u32;
+                let c = *cell_index.entry((i, j)).or_insert_with(|| {
+                    cells.push((i, j));
+                    candidates += n as u64;
+                    next
+                });
+                bucket_pairs.push((c, f as u32));
+            }
+        }
+        if candidates > options.max_candidates {
+            return Err(DeformError::Option {
+                name: "uv_scale",
+                message: format!(
+                    "more than {} candidate yarn vertices — is the UV scale right?",
+                    options.max_candidates
+                ),
+            });
+        }
+    }
+    let nc = cells.len();
+    bucket_pairs.sort_unstable();
+    let mut bucket_offsets = vec![0u32; nc + 1];
+    for &(c, _) in &bucket_pairs {
+        bucket_offsets[c as usize + 1] += 1;
+    }
+    for c in 0..nc {
+        bucket_offsets[c + 1] += bucket_offsets[c];
+    }
+    // 2. Point location. kept[c * n + v] = (triangle, du, dv) or none.
+    const NONE: u32 = u32::MAX;
+    let mut located: Vec<u32> = vec![NONE; nc * n];
+    let mut offsets: Vec<[f64; 2]> = vec![[0.0; 2]; nc * n];
+    let mut cut_outside = 0usize;
+    let eps = 1e-12;
+    for (c, &(i, j)) in cells.iter().enumerate() {
+        for v in 0..n {
+            let x = tile.positions[v];
+            let (u, w) = (x.x + i as f64 * px, x.y + j as f64 * py);
+            let found = cell_index
+                .get(&(cell_of(u, px), cell_of(w, py)))
+                .and_then(|&b| {
+                    let range = bucket_offsets[b as usize] as usize
+                        ..bucket_offsets[b as usize + 1] as usize;
+                    bucket_pairs[range].iter().find_map(|&(_, f)| {
+                        let t = mesh.triangles[f as usize];
+                        let o = mesh.vertex_uv[t[0] as usize];
+                        let d = [u - o[0], w - o[1]];
+                        let m = mesh.dm_inv[f as usize];
+                        let b1 = m[0] * d[0] + m[1] * d[1];
+                        let b2 = m[2] * d[0] + m[3] * d[1];
+                        (b1 >= -eps && b2 >= -eps && b1 + b2 <= 1.0 + eps).then_some((f, d))
+                    })
+                });
+            match found {
+                Some((f, d)) => {
+                    located[c * n + v] = f;
+                    offsets[c * n + v] = d;
+                }
+                None => cut_outside += 1,
+            }
+        }
+    }
+    // 3. Follow yarns.
+    let next_of = |c: usize, v: usize| -> Option<usize> {
+        let e = tile.edges[topology.outgoing(v)];
+        let (i, j) = cells[c];
+        let key = (i + i64::from(e.shift[0]), j + i64::from(e.shift[1]));
+        let &c2 = cell_index.get(&key)?;
+        let id = c2 as usize * n + e.v1;
+        (located[id] != NONE).then_some(id)
+    };
+    let prev_of = |c: usize, v: usize| -> Option<usize> {
+        let e = tile.edges[topology.incoming(v)];
+        let (i, j) = cells[c];
+        let key = (i - i64::from(e.shift[0]), j - i64::from(e.shift[1]));
+        let &c2 = cell_index.get(&key)?;
+        let id = c2 as usize * n + e.v0;
+        (located[id] != NONE).then_some(id)
+    };
+    let material = |id: usize| -> [f64; 3] {
+        let (c, v) = (id / n, id % n);
+        let (i, j) = cells[c];
+        let x = tile.positions[v];
+        [x.x + i as f64 * px, x.y + j as f64 * py, x.z]
+    };
+    let mut visited = vec![false; nc * n];
+    let mut curves: Vec<(Vec<usize>, bool)> = Vec::new();
+    let mut chain = Vec::new();
+    let follow = |start: usize, visited: &mut Vec<bool>, chain: &mut Vec<usize>| -> bool {
+        chain.clear();
+        let mut id = start;
+        loop {
+            visited[id] = true;
+            chain.push(id);
+            match next_of(id / n, id % n) {
+                Some(next) if next == start => return true,
+                Some(next) if !visited[next] => id = next,
+                _ => return false,
+            }
+        }
+    };
+    for id in 0..nc * n {
+        if located[id] != NONE && !visited[id] && prev_of(id / n, id % n).is_none() {
+            let closed = follow(id, &mut visited, &mut chain);
+            curves.push((chain.clone(), closed));
+        }
+    }
+    for id in 0..nc * n {
+        if located[id] != NONE && !visited[id] {
+            let closed = follow(id, &mut visited, &mut chain);
+            curves.push((chain.clone(), closed));
+        }
+    }
+    // 4. Drop short fragments and store.
+    let mut stats = EmbedStats {
+        cells: nc,
+        candidates: nc * n,
+        cut_outside,
+        ..EmbedStats::default()
+    };
+    let mut out = Embedding {
+        triangle: Vec::new(),
+        du: Vec::new(),
+        dv: Vec::new(),
+        height: Vec::new(),
+        tile_vertex: Vec::new(),
+        material: Vec::new(),
+        curve_offsets: vec![0],
+        closed: Vec::new(),
+        stats,
+    };
+    for (chain, closed) in curves {
+        let mut length = 0.0;
+        for w in chain.windows(2) {
+            let (a, b) = (material(w[0]), material(w[1]));
+            length +=
+                ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+        }
+        if chain.len() < 2 || length < options.min_fragment_length {
+            stats.dropped_short += chain.len();
+            stats.fragments_dropped += 1;
+            continue;
+        }
+        for &id in &chain {
+            out.triangle.push(located[id]);
+            out.du.push(T::from_f64(offsets[id][0]));
+            out.dv.push(T::from_f64(offsets[id][1]));
+            let m = material(id);
+            out.height.push(T::from_f64(m[2]));
+            out.tile_vertex.push((id % n) as u32);
+            out.material.push(m);
+        }
+        out.curve_offsets.push(out.triangle.len() as u32);
+        out.closed.push(closed);
+        stats.curves += 1;
+        stats.closed_curves += usize::from(closed);
+    }
+    stats.vertices = out.triangle.len();
+    out.stats = stats;
+    if out.is_empty() {
+        return Err(DeformError::EmptyEmbedding {
+            uv_area: mesh.total_uv_area(),
+            period: tile.period,
+        });
+    }
+    Ok(out)
+}

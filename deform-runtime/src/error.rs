@@ -1,0 +1,86 @@
+//! Typed errors of the deformer library.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong when loading inputs or setting up a deformation.
+#[derive(Debug, thiserror::Error)]
+pub enum DeformError {
+    /// The displacement database could not be read or is malformed.
+    #[error(transparent)]
+    Database(#[from] sim_periodic::madypg::DatabaseError),
+    /// The pattern (`.pyp`) could not be read or is malformed.
+    #[error(transparent)]
+    Pattern(#[from] sim_periodic::pyp::PypError),
+    /// The pattern tile is inconsistent.
+    #[error("invalid pattern tile: {0}")]
+    Tile(#[from] sim_periodic::tile::TileError),
+    /// Database and pattern do not belong together.
+    #[error(
+        "database/pattern mismatch: the database has {database} vertices per sample, the pattern has {pattern} vertices"
+    )]
+    VertexCountMismatch {
+        /// Vertices in the database (rows / samples per vertex).
+        database: usize,
+        /// Vertices in the pattern.
+        pattern: usize,
+    },
+    /// The database contains NaN or infinite displacements.
+    #[error(
+        "database row {row} (vertex {vertex}) is not finite: expected finite (Δx, Δy, Δz, Δθ), found {values:?}"
+    )]
+    NonFiniteData {
+        /// Row index.
+        row: usize,
+        /// Pattern vertex of that row.
+        vertex: usize,
+        /// The row.
+        values: [f32; 4],
+    },
+    /// A file could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// A mesh file is malformed.
+    #[error("{}:{line}: {message}", path.display())]
+    Mesh {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line (0 when the problem is not tied to a line).
+        line: usize,
+        /// What was expected and what was found.
+        message: String,
+    },
+    /// A frame of an animation does not match the rest mesh.
+    #[error("{}: {message}", path.display())]
+    FrameMismatch {
+        /// The frame file.
+        path: PathBuf,
+        /// What differs.
+        message: String,
+    },
+    /// An option value is out of range.
+    #[error("invalid option {name}: {message}")]
+    Option {
+        /// Option name.
+        name: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// Nothing of the pattern lies on the mesh.
+    #[error(
+        "no yarn vertex lies on the mesh (UV area {uv_area:.3e} m², pattern period {period:?} m): check the UV scale"
+    )]
+    EmptyEmbedding {
+        /// Total UV area of the mesh (m², after scaling).
+        uv_area: f64,
+        /// Pattern period (m).
+        period: [f64; 2],
+    },
+}
+
+/// Shorthand for results of this crate.
+pub type Result<T, E = DeformError> = std::result::Result<T, E>;

@@ -1,0 +1,97 @@
+//! The GPU back end (WGSL compute shader through wgpu) agrees with the CPU back end within
+//! 1e-5 relative. Runs on any adapter, including Mesa's lavapipe CPU driver. Without an
+//! adapter the test prints a loud message and passes, unless
+//! `WORKBENCH_REQUIRE_GPU_ADAPTER=1` (set in CI, where lavapipe is installed), in which case
+//! a missing adapter fails it.
+
+mod common;
+
+use common::*;
+use deform_runtime::gpu::{GpuDeformer, GpuError};
+use deform_runtime::{DeformOptions, Deformer, synthetic};
+
+fn gpu_or_skip(cpu: &Deformer<f32>) -> Option<GpuDeformer> {
+    match GpuDeformer::new(cpu) {
+        Ok(gpu) => {
+            eprintln!("GPU test on {}", gpu.adapter());
+            Some(gpu)
+        }
+        Err(e @ GpuError::NoAdapter(_)) => {
+            if std::env::var("WORKBENCH_REQUIRE_GPU_ADAPTER").as_deref() == Ok("1") {
+                panic!("WORKBENCH_REQUIRE_GPU_ADAPTER=1 but {e}");
+            }
+            eprintln!("\n!!!!!!!!!! SKIPPING the CPU/GPU comparison: {e} !!!!!!!!!!\n");
+            None
+        }
+        Err(e) => panic!("GPU back end failed: {e}"),
+    }
+}
+
+/// Largest coordinate difference relative to the largest coordinate magnitude, and largest
+/// twist difference.
+fn compare(cpu: &Deformer<f32>, gpu: &GpuDeformer) -> (f64, f64) {
+    let (a, b) = (cpu.output(), gpu.output());
+    let scale =
+        a.x.iter()
+            .chain(&a.y)
+            .chain(&a.z)
+            .fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
+    let mut worst = 0.0f64;
+    let mut worst_twist = 0.0f64;
+    for k in 0..a.x.len() {
+        for (p, q) in [(a.x[k], b.x[k]), (a.y[k], b.y[k]), (a.z[k], b.z[k])] {
+            worst = worst.max(f64::from(p - q).abs() / scale);
+        }
+        worst_twist = worst_twist.max(f64::from(a.twist[k] - b.twist[k]).abs());
+    }
+    (worst, worst_twist)
+}
+
+#[test]
+fn cpu_and_gpu_agree() {
+    let tile = stockinette();
+    // Non-uniform axes (search path) and uniform axes (direct path).
+    let databases = [
+        database(&tile),
+        synthetic::database(
+            &tile,
+            synthetic::uniform_axes(5),
+            synthetic::multilinear(tile.radius),
+        ),
+    ];
+    let mesh = grid(&tile, 6.0, 8.0, 6);
+    let moved = synthetic::map_uvs(&mesh, |uv| synthetic::wave(uv, 2.0));
+    let squeezed = synthetic::map_uvs(&mesh, |uv| [0.7 * uv[0], 1.05 * uv[1] + 0.2 * uv[0], 0.0]);
+    let rest = synthetic::map_uvs(&mesh, |uv| [uv[0], uv[1], 0.0]);
+    for db in &databases {
+        for options in [
+            DeformOptions::default(),
+            DeformOptions {
+                clamp_compression: false,
+                phong: false,
+                interpolate_forms: false,
+                ..DeformOptions::default()
+            },
+            DeformOptions {
+                linearized_bending: false,
+                skip_identity: false,
+                ..DeformOptions::default()
+            },
+        ] {
+            let mut cpu = deformer::<f32>(&tile, db, &mesh, options);
+            let Some(mut gpu) = gpu_or_skip(&cpu) else {
+                return;
+            };
+            for positions in [&moved, &squeezed, &rest] {
+                cpu.frame(positions).unwrap();
+                let mut for_gpu = cpu.clone();
+                let stats = gpu.frame(&mut for_gpu, positions).unwrap();
+                assert_eq!(stats.vertices.nonfinite_output, 0);
+                let (rel, twist) = compare(&cpu, &gpu);
+                eprintln!("CPU vs GPU: max relative difference {rel:.2e}, twist {twist:.2e} rad");
+                assert!(rel < 1e-5, "{options:?}: relative difference {rel:e}");
+                assert!(twist < 1e-5, "{options:?}: twist difference {twist:e}");
+            }
+        }
+    }
+}

@@ -1,0 +1,504 @@
+//! `shell-fem` command line: fit the thin-shell in-plane model to uniaxial measurements (and,
+//! with `--bending FILE`, the bending stiffnesses to pear-loop data `direction,d,r`), and emit
+//! the uniform target curves of Eq. 3.
+//!
+//! ```text
+//! shell-fem fit --data tests/data/measurements/acrylic-yarn-stockinette-x.csv \
+//!               --data warp=tests/data/measurements/acrylic-yarn-stockinette-y.csv --out out/
+//! shell-fem curves --params out/params.json --out out/curves
+//! ```
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+
+use shell_fem::bending_fit::{
+    BendingFitConfig, BendingFitResult, BendingTarget, DEFAULT_INITIAL, fit_bending,
+    read_bending_csv, unidentified,
+};
+use shell_fem::curves::TargetCurves;
+use shell_fem::fit::{FitConfig, FitResult, Weighting, fit, initial_guess, targets};
+use shell_fem::material::{InPlaneParams, Material, Model};
+use shell_fem::measurements::{
+    BinOptions, Measurement, direction_from_name, read_direction_csv, read_stitch_csv,
+};
+use shell_fem::pear_loop::PearLoopConfig;
+use shell_fem::swatch::{Direction, SwatchConfig};
+
+#[derive(Parser)]
+#[command(
+    name = "shell-fem",
+    version,
+    about = "Anisotropic thin shell fitted to fabric stretch tests (seed 002, §5)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ModelArg {
+    /// Eq. 1: anisotropic StVK + area terms.
+    Augmented,
+    /// Plain anisotropic StVK.
+    Stvk,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum WeightArg {
+    /// Normalize by the mean measured value per direction (paper).
+    Mean,
+    /// Relative residuals.
+    Relative,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Fit {kxx, kxy, kyy, kss, kn1, kn2} to measurements (Eq. 2) and write parameters,
+    /// a run manifest, the fit table and the uniform target curves.
+    Fit {
+        /// Measurement file: a stitch-by-stitch CSV (direction from the name `…-x.csv` /
+        /// `…-y.csv`, or `DIR=path` with DIR weft|bias|warp) or a `direction,s,f_s,c` CSV.
+        #[arg(long, required = true)]
+        data: Vec<String>,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Cells along the swatch length (even).
+        #[arg(long, default_value_t = 20)]
+        nx: usize,
+        /// Cells across the swatch width.
+        #[arg(long, default_value_t = 12)]
+        ny: usize,
+        /// Targets per direction.
+        #[arg(long, default_value_t = 6)]
+        targets: usize,
+        /// Strain bins for stitch-by-stitch data.
+        #[arg(long, default_value_t = 24)]
+        bins: usize,
+        /// Material model.
+        #[arg(long, value_enum, default_value_t = ModelArg::Augmented)]
+        model: ModelArg,
+        /// Maximum Levenberg–Marquardt iterations.
+        #[arg(long, default_value_t = 200)]
+        max_iterations: usize,
+        /// Residual weighting: `mean` (paper: per-direction mean) or `relative`.
+        #[arg(long, value_enum, default_value_t = WeightArg::Mean)]
+        weighting: WeightArg,
+        /// Pear-loop data, a CSV `direction,d,r` (d in m): also fit the bending stiffnesses
+        /// {k_θ weft, bias, warp} (§5.2) with the fitted in-plane material.
+        #[arg(long)]
+        bending: Option<PathBuf>,
+        /// Cells along the pear-loop strip.
+        #[arg(long, default_value_t = 40)]
+        pear_nx: usize,
+        /// Cells across the pear-loop strip.
+        #[arg(long, default_value_t = 4)]
+        pear_ny: usize,
+        /// Largest curvature (1/m) of the bending target curves (with `--bending`).
+        #[arg(long, default_value_t = 100.0)]
+        kappa_max: f64,
+    },
+    /// Uniform target curves {s, c, σ_s} (Eq. 3) from a parameter file.
+    Curves {
+        /// `params.json` written by `fit`, or a JSON object with kxx … kn2 (N/m).
+        #[arg(long)]
+        params: PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Stretch range per direction, `weft=0.5` (repeatable; default 0.5 for all three).
+        #[arg(long)]
+        range: Vec<String>,
+        /// Samples per curve.
+        #[arg(long, default_value_t = 21)]
+        samples: usize,
+        /// Material model.
+        #[arg(long, value_enum, default_value_t = ModelArg::Augmented)]
+        model: ModelArg,
+    },
+}
+
+fn model(m: ModelArg) -> Model {
+    match m {
+        ModelArg::Augmented => Model::Augmented,
+        ModelArg::Stvk => Model::StVK,
+    }
+}
+
+fn load(spec: &str, bins: &BinOptions) -> Result<Vec<Measurement>> {
+    let (dir, path) = match spec.split_once('=') {
+        Some((d, p)) => (
+            Some(
+                Direction::parse(d)
+                    .with_context(|| format!("unknown direction `{d}` in `{spec}`"))?,
+            ),
+            Path::new(p),
+        ),
+        None => (None, Path::new(spec)),
+    };
+    let head = std::fs::read_to_string(path)
+        .with_context(|| format!("reading {}", path.display()))?
+        .lines()
+        .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+        .unwrap_or_default()
+        .to_ascii_lowercase();
+    if head.contains("axial_strain") {
+        let d = dir.or_else(|| direction_from_name(path)).with_context(|| {
+            format!(
+                "cannot tell the direction of {}; pass DIR=path",
+                path.display()
+            )
+        })?;
+        Ok(vec![read_stitch_csv(path, d, bins)?])
+    } else {
+        Ok(read_direction_csv(path)?)
+    }
+}
+
+fn write(path: &Path, text: &str) -> Result<()> {
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+fn ensure_finite(v: &serde_json::Value, what: &str) -> Result<()> {
+    // serde_json writes non-finite floats as null: refuse rather than write them.
+    fn walk(v: &serde_json::Value) -> bool {
+        match v {
+            serde_json::Value::Null => false,
+            serde_json::Value::Array(a) => a.iter().all(walk),
+            serde_json::Value::Object(o) => o.values().all(walk),
+            _ => true,
+        }
+    }
+    if !walk(v) {
+        bail!("{what} contains a non-finite number; not written");
+    }
+    Ok(())
+}
+
+/// Options of the bending part of `fit`.
+struct BendingArgs {
+    data: Option<PathBuf>,
+    pear_nx: usize,
+    pear_ny: usize,
+    kappa_max: f64,
+}
+
+/// Fits `{k_θ}` to the pear-loop CSV with the fitted in-plane material; writes
+/// `bending.json` and `bending_fit.csv`, returns the result.
+fn run_bending_fit(
+    tg: &[BendingTarget],
+    args: &BendingArgs,
+    material: Material,
+    out: &Path,
+) -> Result<BendingFitResult> {
+    let mut dirs: Vec<Direction> = tg.iter().map(|t| t.direction).collect();
+    dirs.sort();
+    dirs.dedup();
+    let cfg = BendingFitConfig {
+        pear: PearLoopConfig {
+            nx: args.pear_nx,
+            ny: args.pear_ny,
+            ..PearLoopConfig::default()
+        },
+        material,
+        fixed: unidentified(&dirs),
+        ..BendingFitConfig::default()
+    };
+    let bar = ProgressBar::new(cfg.max_iterations as u64);
+    bar.set_style(ProgressStyle::with_template(
+        "{spinner} bending LM {pos}/{len} {msg} [{elapsed}]",
+    )?);
+    let mut cb = |it: usize, cost: f64| {
+        bar.set_position(it as u64);
+        bar.set_message(format!("cost {cost:.4e}"));
+    };
+    let r = fit_bending(tg, DEFAULT_INITIAL, &cfg, Some(&mut cb))?;
+    bar.finish_and_clear();
+    let j = serde_json::to_value(&r)?;
+    ensure_finite(&j, "bending fit result")?;
+    write(
+        &out.join("bending.json"),
+        &serde_json::to_string_pretty(&j)?,
+    )?;
+    let mut table = String::from("direction,d,r_measured,r_fit\n");
+    for (t, s) in r.targets.iter().zip(&r.simulated) {
+        table += &format!("{},{},{},{}\n", t.direction.name(), t.d, t.ratio, s.ratio);
+    }
+    write(&out.join("bending_fit.csv"), &table)?;
+    println!(
+        "bending: fitted {:?}, mean relative ratio error {:.2} % ({} LM iterations, {:.1} s; {})",
+        r.params,
+        100.0 * r.ratio_rel_error,
+        r.iterations,
+        r.seconds,
+        r.termination
+    );
+    Ok(r)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run_fit(
+    data: &[String],
+    out: &Path,
+    swatch: SwatchConfig,
+    n_targets: usize,
+    bins: usize,
+    m: Model,
+    weighting: Weighting,
+    max_iterations: usize,
+    bending: &BendingArgs,
+) -> Result<()> {
+    if !(bending.kappa_max.is_finite() && bending.kappa_max > 0.0) {
+        bail!(
+            "--kappa-max must be finite and > 0, got {}",
+            bending.kappa_max
+        );
+    }
+    // Read the pear-loop data first, so a malformed file fails before the in-plane fit.
+    let bending_targets = bending.data.as_deref().map(read_bending_csv).transpose()?;
+    let start = Instant::now();
+    let bin_opts = BinOptions {
+        bins,
+        swatch_width: swatch.width,
+    };
+    let mut measurements = Vec::new();
+    for spec in data {
+        measurements.extend(load(spec, &bin_opts)?);
+    }
+    let mut dirs: Vec<Direction> = measurements.iter().map(|m| m.direction).collect();
+    dirs.sort();
+    if dirs.windows(2).any(|w| w[0] == w[1]) {
+        bail!("a direction is given twice: {dirs:?}");
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let tg = targets(&measurements, n_targets);
+    let initial = initial_guess(&measurements, swatch.width);
+    // Without a bias test the shear stiffness is not identifiable: hold it at its guess.
+    let mut fixed = [false; 6];
+    fixed[3] = !dirs.contains(&Direction::Bias);
+    let cfg = FitConfig {
+        swatch,
+        model: m,
+        weighting,
+        fixed,
+        max_iterations,
+        ..FitConfig::default()
+    };
+    let bar = ProgressBar::new(cfg.max_iterations as u64);
+    bar.set_style(ProgressStyle::with_template(
+        "{spinner} LM {pos}/{len} {msg} [{elapsed}]",
+    )?);
+    let mut cb = |it: usize, cost: f64| {
+        bar.set_position(it as u64);
+        bar.set_message(format!("cost {cost:.4e}"));
+    };
+    let result: FitResult = fit(&tg, initial, &cfg, Some(&mut cb))?;
+    bar.finish_and_clear();
+    let ranges: Vec<(Direction, f64)> = measurements
+        .iter()
+        .map(|m| (m.direction, m.s_max()))
+        .collect();
+    let material = Material {
+        params: result.params,
+        model: m,
+    };
+    let bending_result = match &bending_targets {
+        Some(tg) => Some(run_bending_fit(tg, bending, material, out)?),
+        None => None,
+    };
+    let curves = TargetCurves::generate(
+        &material,
+        &ranges,
+        21,
+        bending_result
+            .as_ref()
+            .map(|r| (&r.params, bending.kappa_max)),
+    )?;
+    let params_json = serde_json::to_value(&result)?;
+    ensure_finite(&params_json, "fit result")?;
+    write(
+        &out.join("params.json"),
+        &serde_json::to_string_pretty(&params_json)?,
+    )?;
+    let mut table =
+        String::from("direction,s,force_measured,force_fit,compression_measured,compression_fit\n");
+    for (t, s) in result.targets.iter().zip(&result.simulated) {
+        table += &format!(
+            "{},{},{},{},{},{}\n",
+            t.direction.name(),
+            t.s,
+            t.force,
+            s.force,
+            t.compression,
+            s.compression
+        );
+    }
+    write(&out.join("fit.csv"), &table)?;
+    let curves_json = serde_json::to_value(&curves)?;
+    ensure_finite(&curves_json, "target curves")?;
+    write(
+        &out.join("curves.json"),
+        &serde_json::to_string_pretty(&curves_json)?,
+    )?;
+    write(&out.join("curves.csv"), &curves.to_csv())?;
+    let manifest = json!({
+        "tool": "shell-fem fit",
+        "version": env!("CARGO_PKG_VERSION"),
+        "data": data,
+        "model": format!("{m:?}"),
+        "swatch": {"length_m": cfg.swatch.length, "width_m": cfg.swatch.width, "nx": cfg.swatch.nx, "ny": cfg.swatch.ny},
+        "targets_per_direction": n_targets,
+        "bins": bins,
+        "weighting": format!("{weighting:?}"),
+        "fixed_parameters": InPlaneParams::NAMES.iter().zip(fixed).filter(|(_, f)| *f).map(|(n, _)| *n).collect::<Vec<_>>(),
+        "lm_iterations": result.iterations,
+        "termination": result.termination,
+        "fit_seconds": result.seconds,
+        "total_seconds": start.elapsed().as_secs_f64(),
+        "force_rel_error": result.force_rel_error,
+        "compression_rel_error": result.compression_rel_error,
+        "bending": bending_result.as_ref().map(|r| json!({
+            "data": bending.data,
+            "pear_loop": {"nx": bending.pear_nx, "ny": bending.pear_ny},
+            "initial": r.initial,
+            "params": r.params,
+            "ratio_rel_error": r.ratio_rel_error,
+            "lm_iterations": r.iterations,
+            "termination": r.termination,
+            "fit_seconds": r.seconds,
+            "kappa_max_per_m": bending.kappa_max,
+        })),
+    });
+    write(
+        &out.join("manifest.json"),
+        &serde_json::to_string_pretty(&manifest)?,
+    )?;
+    println!(
+        "fitted {:?}\nmean relative error: force {:.2} %, compression {:.2} % ({} LM iterations, {:.1} s; {})",
+        result.params,
+        100.0 * result.force_rel_error,
+        100.0 * result.compression_rel_error,
+        result.iterations,
+        result.seconds,
+        result.termination
+    );
+    for e in &result.errors {
+        println!(
+            "  {}: force {:.2} %, compression {:.2} %",
+            e.direction.name(),
+            100.0 * e.force_rel_error,
+            100.0 * e.compression_rel_error
+        );
+    }
+    Ok(())
+}
+
+fn run_curves(params: &Path, out: &Path, range: &[String], samples: usize, m: Model) -> Result<()> {
+    let text =
+        std::fs::read_to_string(params).with_context(|| format!("reading {}", params.display()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{}: not JSON", params.display()))?;
+    let p: InPlaneParams = serde_json::from_value(v.get("params").cloned().unwrap_or(v))
+        .with_context(|| {
+            format!(
+                "{}: expected kxx, kxy, kyy, kss, kn1, kn2",
+                params.display()
+            )
+        })?;
+    let mut ranges = Vec::new();
+    for r in range {
+        let (d, s) = r
+            .split_once('=')
+            .with_context(|| format!("range `{r}`: expected DIR=S"))?;
+        let d = Direction::parse(d).with_context(|| format!("unknown direction `{d}`"))?;
+        let s: f64 = s
+            .parse()
+            .with_context(|| format!("range `{r}`: `{s}` is not a number"))?;
+        ranges.push((d, s));
+    }
+    if ranges.is_empty() {
+        ranges = Direction::ALL.iter().map(|&d| (d, 0.5)).collect();
+    }
+    let curves = TargetCurves::generate(
+        &Material {
+            params: p,
+            model: m,
+        },
+        &ranges,
+        samples,
+        None,
+    )?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let j = serde_json::to_value(&curves)?;
+    ensure_finite(&j, "target curves")?;
+    write(&out.join("curves.json"), &serde_json::to_string_pretty(&j)?)?;
+    write(&out.join("curves.csv"), &curves.to_csv())?;
+    write(
+        &out.join("manifest.json"),
+        &serde_json::to_string_pretty(&json!({
+            "tool": "shell-fem curves", "version": env!("CARGO_PKG_VERSION"),
+            "params": p, "model": format!("{m:?}"), "samples": samples,
+            "ranges": ranges.iter().map(|(d, s)| json!({"direction": d.name(), "s_max": s})).collect::<Vec<_>>(),
+        }))?,
+    )?;
+    println!("wrote {}", out.join("curves.csv").display());
+    Ok(())
+}
+
+fn main() -> Result<()> {
+    match Cli::parse().command {
+        Command::Fit {
+            data,
+            out,
+            nx,
+            ny,
+            targets,
+            bins,
+            model: m,
+            weighting,
+            max_iterations,
+            bending,
+            pear_nx,
+            pear_ny,
+            kappa_max,
+        } => {
+            let swatch = SwatchConfig {
+                nx,
+                ny,
+                ..SwatchConfig::default()
+            };
+            let w = match weighting {
+                WeightArg::Mean => Weighting::DirectionMean,
+                WeightArg::Relative => Weighting::Relative,
+            };
+            run_fit(
+                &data,
+                &out,
+                swatch,
+                targets,
+                bins,
+                model(m),
+                w,
+                max_iterations,
+                &BendingArgs {
+                    data: bending,
+                    pear_nx,
+                    pear_ny,
+                    kappa_max,
+                },
+            )
+        }
+        Command::Curves {
+            params,
+            out,
+            range,
+            samples,
+            model: m,
+        } => run_curves(&params, &out, &range, samples, model(m)),
+    }
+}

@@ -1,0 +1,650 @@
+//! The in-plane fit of seed 002, Eq. 2, by simulation in the loop:
+//!
+//! ```text
+//! k_inplane = argmin Σ_i w_s (f_s(k, s_i) − f_s,i)² + w_c (c(k, s_i) − c_i)²
+//! ```
+//!
+//! over `k = {kxx, kxy, kyy, kss, kn1, kn2}` with `6` targets per available direction, evenly
+//! spread over the measured stretch range (`s_i = s_max i/6`, `i = 1 … 6`, measured values
+//! interpolated from the binned curve). The weights normalize each residual by the average
+//! measured force or compression **of its direction** (`w_s = 1/mean(f)²`, `w_c = 1/mean(c)²`),
+//! so every direction counts equally whatever its stiffness.
+//!
+//! **Derivatives.** Each residual's gradient comes from the adjoint sensitivities of the
+//! equilibrium ([`StretchTest::sensitivities`]: one sparse LU of the exact Hessian per target,
+//! two back-substitutions), not from finite differences of the black box.
+//!
+//! **Optimizer.** Levenberg–Marquardt in scaled parameters `p_k / scale_k` with Marquardt's
+//! diagonal damping, bounds by projection onto the box `[lower, upper]`, plus
+//! `|kxy| ≤ 0.95 √(kxx kyy)` (positive definite `K`). A trial step whose equilibria fail to
+//! converge is rejected like a step that increases the cost (λ grows); only a failure at the
+//! initial guess is an error.
+
+use std::time::Instant;
+
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use crate::ShellError;
+use crate::material::{InPlaneParams, Material, Model};
+use crate::measurements::Measurement;
+use crate::swatch::{Direction, StretchTest, SwatchConfig};
+
+/// One fit target: a stretch and the measured force and compression there.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Target {
+    /// Direction of the test.
+    pub direction: Direction,
+    /// Stretch `s_i`.
+    pub s: f64,
+    /// Measured force `f_s,i` (N).
+    pub force: f64,
+    /// Measured compression `c_i`.
+    pub compression: f64,
+}
+
+/// `n` targets per measurement at `s_max i/n`, `i = 1 … n`.
+pub fn targets(measurements: &[Measurement], n: usize) -> Vec<Target> {
+    let mut out = Vec::new();
+    for m in measurements {
+        for i in 1..=n {
+            let p = m.interpolate(m.s_max() * i as f64 / n as f64);
+            out.push(Target {
+                direction: m.direction,
+                s: p.s,
+                force: p.force,
+                compression: p.compression,
+            });
+        }
+    }
+    out
+}
+
+/// How the residuals of Eq. 2 are weighted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Weighting {
+    /// The paper's: normalize by the mean measured force / compression of the direction.
+    DirectionMean,
+    /// Relative residuals `(f_sim − f_i)/f_i`, `(c_sim − c_i)/c_i`: minimizes (the squares
+    /// of) exactly the relative errors that are reported.
+    Relative,
+}
+
+/// Fit settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitConfig {
+    /// Residual weighting. Default [`Weighting::DirectionMean`] (the paper's).
+    pub weighting: Weighting,
+    /// Parameters held at their initial value (e.g. `kss` when there is no bias test, which
+    /// leaves it unidentifiable). Default none.
+    pub fixed: [bool; 6],
+    /// Swatch of the virtual tests.
+    pub swatch: SwatchConfig,
+    /// Material model fitted. Default [`Model::Augmented`].
+    pub model: Model,
+    /// Lower bounds (N/m, order of [`InPlaneParams::to_array`]). Default
+    /// `[1, −∞, 1, 0.1, 0, 0]`.
+    pub lower: [f64; 6],
+    /// Upper bounds (N/m). Default `1e6` each.
+    pub upper: [f64; 6],
+    /// Maximum LM iterations (accepted or rejected). Default 60.
+    pub max_iterations: usize,
+    /// Stop when an accepted step lowers the cost by less than this fraction. Default `1e-10`.
+    pub cost_rtol: f64,
+    /// Stop when the scaled step is smaller than this. Default `1e-9`.
+    pub step_tol: f64,
+}
+
+impl Default for FitConfig {
+    fn default() -> Self {
+        Self {
+            swatch: SwatchConfig::default(),
+            weighting: Weighting::DirectionMean,
+            fixed: [false; 6],
+            model: Model::Augmented,
+            lower: [1.0, f64::NEG_INFINITY, 1.0, 0.1, 0.0, 0.0],
+            upper: [1e6; 6],
+            max_iterations: 60,
+            cost_rtol: 1e-10,
+            step_tol: 1e-9,
+        }
+    }
+}
+
+/// Per-direction fit quality.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DirectionError {
+    /// Direction.
+    pub direction: Direction,
+    /// Mean of `|f_sim − f_i| / |f_i|` over the direction's targets.
+    pub force_rel_error: f64,
+    /// Mean of `|c_sim − c_i| / |c_i|` over the direction's targets.
+    pub compression_rel_error: f64,
+}
+
+/// Result of [`fit`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitResult {
+    /// Fitted parameters (N/m).
+    pub params: InPlaneParams,
+    /// Initial guess (N/m).
+    pub initial: InPlaneParams,
+    /// Final cost (weighted sum of squares, Eq. 2).
+    pub cost: f64,
+    /// Cost after every accepted step (first entry: the initial guess).
+    pub cost_history: Vec<f64>,
+    /// LM iterations (accepted and rejected).
+    pub iterations: usize,
+    /// Simulated force and compression at the targets with the fitted parameters.
+    pub simulated: Vec<Target>,
+    /// The targets.
+    pub targets: Vec<Target>,
+    /// Errors per direction.
+    pub errors: Vec<DirectionError>,
+    /// Mean relative force error over all targets.
+    pub force_rel_error: f64,
+    /// Mean relative compression error over all targets.
+    pub compression_rel_error: f64,
+    /// Wall time (s).
+    pub seconds: f64,
+    /// Why it stopped.
+    pub termination: String,
+}
+
+/// Simulates all targets of one direction with warm starts; keeps one stretch test and the
+/// equilibrium state at every target.
+struct DirectionSim {
+    test: StretchTest,
+    /// Indices into the target list, increasing in `s`.
+    idx: Vec<usize>,
+    states: Vec<Option<Vec<f64>>>,
+}
+
+struct Evaluation {
+    sim: Vec<(f64, f64)>,
+    jac: Option<Vec<([f64; 6], [f64; 6])>>,
+    states: Vec<Vec<Option<Vec<f64>>>>,
+}
+
+/// The simulator that maps parameters to simulated targets (and their sensitivities).
+pub struct Simulator {
+    dirs: Vec<DirectionSim>,
+    n_targets: usize,
+    model: Model,
+}
+
+impl Simulator {
+    /// One stretch test per direction present in `targets`.
+    pub fn new(cfg: &SwatchConfig, model: Model, targets: &[Target]) -> Result<Self, ShellError> {
+        let mut dirs = Vec::new();
+        for d in Direction::ALL {
+            let mut idx: Vec<usize> = (0..targets.len())
+                .filter(|&i| targets[i].direction == d)
+                .collect();
+            if idx.is_empty() {
+                continue;
+            }
+            idx.sort_by(|&a, &b| targets[a].s.total_cmp(&targets[b].s));
+            let material = Material {
+                params: InPlaneParams::example(),
+                model,
+            };
+            dirs.push(DirectionSim {
+                test: StretchTest::new(cfg, material, d.angle())?,
+                states: vec![None; idx.len()],
+                idx,
+            });
+        }
+        Ok(Self {
+            dirs,
+            n_targets: targets.len(),
+            model,
+        })
+    }
+
+    fn evaluate(
+        &mut self,
+        p: &InPlaneParams,
+        targets: &[Target],
+        with_jac: bool,
+    ) -> Result<Evaluation, ShellError> {
+        let mut sim = vec![(0.0, 0.0); self.n_targets];
+        let mut jac = with_jac.then(|| vec![([0.0; 6], [0.0; 6]); self.n_targets]);
+        let mut states = Vec::new();
+        for d in &mut self.dirs {
+            d.test.set_material(Material {
+                params: *p,
+                model: self.model,
+            });
+            let mut new_states: Vec<Vec<f64>> = Vec::with_capacity(d.idx.len());
+            for (j, &ti) in d.idx.iter().enumerate() {
+                let s = targets[ti].s;
+                // Warm start from the previous accepted equilibrium at this target; fall back
+                // to continuing from the previous target (or from rest).
+                let mut point = None;
+                if let Some(x) = &d.states[j] {
+                    d.test.set_state(s, x)?;
+                    point = d.test.solve_to(s).ok();
+                }
+                let point = match point {
+                    Some(p) => p,
+                    None => {
+                        match new_states.last() {
+                            Some(x) => d.test.set_state(targets[d.idx[j - 1]].s, x)?,
+                            None => d.test.reset(),
+                        }
+                        d.test.solve_to(s)?
+                    }
+                };
+                sim[ti] = (point.force, point.compression);
+                if let Some(jac) = jac.as_mut() {
+                    let sens = d.test.sensitivities()?;
+                    jac[ti] = (sens.force, sens.compression);
+                }
+                new_states.push(d.test.positions().to_vec());
+            }
+            states.push(new_states.into_iter().map(Some).collect());
+        }
+        Ok(Evaluation { sim, jac, states })
+    }
+
+    /// Simulated `(f_s, c)` at every target for parameters `p` (warm-started from the last
+    /// evaluation, whose states are then replaced).
+    pub fn simulate(
+        &mut self,
+        p: &InPlaneParams,
+        targets: &[Target],
+    ) -> Result<Vec<(f64, f64)>, ShellError> {
+        let e = self.evaluate(p, targets, false)?;
+        self.commit(e.states);
+        Ok(e.sim)
+    }
+
+    fn commit(&mut self, states: Vec<Vec<Option<Vec<f64>>>>) {
+        for (d, s) in self.dirs.iter_mut().zip(states) {
+            d.states = s;
+        }
+    }
+}
+
+/// Residual weights `(√w_s, √w_c)` per target (per-direction mean normalization).
+fn weights(targets: &[Target], weighting: Weighting) -> Vec<(f64, f64)> {
+    targets
+        .iter()
+        .map(|t| {
+            if weighting == Weighting::Relative {
+                return (
+                    1.0 / t.force.abs().max(1e-12),
+                    1.0 / t.compression.abs().max(1e-12),
+                );
+            }
+            let same: Vec<&Target> = targets
+                .iter()
+                .filter(|u| u.direction == t.direction)
+                .collect();
+            let n = same.len() as f64;
+            let mf = same.iter().map(|u| u.force.abs()).sum::<f64>() / n;
+            let mc = same.iter().map(|u| u.compression.abs()).sum::<f64>() / n;
+            (1.0 / mf.max(1e-12), 1.0 / mc.max(1e-12))
+        })
+        .collect()
+}
+
+/// A starting point from the measured curves: `kxx`, `kyy` from the largest-stretch secant
+/// of the weft / warp force (`σ ≈ k E (1+s)` with `σ = f/w̄`), `kss` from the bias if present,
+/// small coupling and area terms. Missing directions borrow from the others.
+pub fn initial_guess(measurements: &[Measurement], swatch_width: f64) -> InPlaneParams {
+    let secant = |d: Direction| {
+        measurements.iter().find(|m| m.direction == d).map(|m| {
+            let p = m.points.last().expect("non-empty");
+            let e = 0.5 * ((1.0 + p.s).powi(2) - 1.0);
+            (p.force / swatch_width / (e * (1.0 + p.s))).max(1.0)
+        })
+    };
+    let (kx, ky, kb) = (
+        secant(Direction::Weft),
+        secant(Direction::Warp),
+        secant(Direction::Bias),
+    );
+    let any = kx.or(ky).or(kb).unwrap_or(100.0);
+    let kxx = kx.unwrap_or(any);
+    let kyy = ky.unwrap_or(any);
+    let kss = kb.map_or(0.5 * kxx.min(kyy), |b| 0.5 * b);
+    InPlaneParams {
+        kxx,
+        kxy: 0.1 * (kxx * kyy).sqrt(),
+        kyy,
+        kss,
+        kn1: 0.1 * kxx.min(kyy),
+        kn2: 0.1 * kxx.min(kyy),
+    }
+}
+
+fn project(p: &mut [f64; 6], cfg: &FitConfig) {
+    for k in 0..6 {
+        p[k] = p[k].clamp(cfg.lower[k], cfg.upper[k]);
+    }
+    let bound = 0.95 * (p[0] * p[2]).sqrt();
+    p[1] = p[1].clamp(-bound, bound);
+}
+
+/// Progress callback: `(iteration, cost)` after each LM iteration.
+pub type Progress<'a> = &'a mut dyn FnMut(usize, f64);
+
+/// Fits the in-plane parameters to `targets` from `initial` (see the module docs).
+pub fn fit(
+    targets: &[Target],
+    initial: InPlaneParams,
+    cfg: &FitConfig,
+    progress: Option<Progress<'_>>,
+) -> Result<FitResult, ShellError> {
+    let start = Instant::now();
+    if targets.is_empty() {
+        return Err(ShellError::InvalidInput("no fit targets".into()));
+    }
+    if let Some(t) = targets
+        .iter()
+        .find(|t| !(t.s.is_finite() && t.force.is_finite() && t.compression.is_finite()))
+    {
+        return Err(ShellError::InvalidInput(format!(
+            "non-finite fit target {t:?}"
+        )));
+    }
+    let sim = std::cell::RefCell::new(Simulator::new(&cfg.swatch, cfg.model, targets)?);
+    let w = weights(targets, cfg.weighting);
+    let m = 2 * targets.len();
+    let residuals = |e: &[(f64, f64)]| -> DVector<f64> {
+        DVector::from_fn(m, |r, _| {
+            let (t, (wf, wc)) = (&targets[r / 2], w[r / 2]);
+            if r % 2 == 0 {
+                wf * (e[r / 2].0 - t.force)
+            } else {
+                wc * (e[r / 2].1 - t.compression)
+            }
+        })
+    };
+    let mut p = initial.to_array();
+    project(&mut p, cfg);
+    let scale: [f64; 6] = std::array::from_fn(|k| {
+        let v = p[k].abs();
+        if v > 0.0 {
+            v
+        } else {
+            (p[0] * p[2]).sqrt().max(1.0) * 0.1
+        }
+    });
+    let mut eval = |q: &[f64; 6]| -> Result<LmEval<Evaluation>, ShellError> {
+        let e = sim
+            .borrow_mut()
+            .evaluate(&InPlaneParams::from_array(*q), targets, true)?;
+        let r = residuals(&e.sim);
+        let rows = e.jac.as_ref().expect("Jacobian requested");
+        let j = DMatrix::from_fn(m, 6, |row, k| {
+            let (wf, wc) = w[row / 2];
+            let (df, dc) = &rows[row / 2];
+            if row % 2 == 0 { wf * df[k] } else { wc * dc[k] }
+        });
+        Ok((r, j, e))
+    };
+    let mut simulated_values = Vec::new();
+    let mut commit = |mut e: Evaluation| {
+        sim.borrow_mut().commit(std::mem::take(&mut e.states));
+        simulated_values = e.sim;
+    };
+    let outcome = bounded_lm(
+        p,
+        cfg.lower,
+        cfg.upper,
+        cfg.fixed,
+        scale,
+        &LmSettings {
+            max_iterations: cfg.max_iterations,
+            cost_rtol: cfg.cost_rtol,
+            step_tol: cfg.step_tol,
+            residual_tol: 0.0,
+        },
+        &|q: &mut [f64; 6]| project(q, cfg),
+        &mut eval,
+        &mut commit,
+        progress,
+    )?;
+    let (p, cost, history, iterations, termination) = (
+        outcome.p,
+        outcome.cost,
+        outcome.history,
+        outcome.iterations,
+        outcome.termination,
+    );
+    let params = InPlaneParams::from_array(p);
+    let simulated: Vec<Target> = targets
+        .iter()
+        .zip(&simulated_values)
+        .map(|(t, &(f, c))| Target {
+            force: f,
+            compression: c,
+            ..*t
+        })
+        .collect();
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-12);
+    let mut errors = Vec::new();
+    for d in Direction::ALL {
+        let pairs: Vec<(&Target, &Target)> = targets
+            .iter()
+            .zip(&simulated)
+            .filter(|(t, _)| t.direction == d)
+            .collect();
+        if pairs.is_empty() {
+            continue;
+        }
+        let n = pairs.len() as f64;
+        errors.push(DirectionError {
+            direction: d,
+            force_rel_error: pairs
+                .iter()
+                .map(|(t, s)| rel(s.force, t.force))
+                .sum::<f64>()
+                / n,
+            compression_rel_error: pairs
+                .iter()
+                .map(|(t, s)| rel(s.compression, t.compression))
+                .sum::<f64>()
+                / n,
+        });
+    }
+    let n = targets.len() as f64;
+    let force_rel_error = targets
+        .iter()
+        .zip(&simulated)
+        .map(|(t, s)| rel(s.force, t.force))
+        .sum::<f64>()
+        / n;
+    let compression_rel_error = targets
+        .iter()
+        .zip(&simulated)
+        .map(|(t, s)| rel(s.compression, t.compression))
+        .sum::<f64>()
+        / n;
+    Ok(FitResult {
+        params,
+        initial,
+        cost,
+        cost_history: history,
+        iterations,
+        simulated,
+        targets: targets.to_vec(),
+        errors,
+        force_rel_error,
+        compression_rel_error,
+        seconds: start.elapsed().as_secs_f64(),
+        termination,
+    })
+}
+
+/// Stopping rules of [`bounded_lm`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct LmSettings {
+    /// Maximum iterations (accepted or rejected).
+    pub max_iterations: usize,
+    /// Stop when an accepted step lowers the cost by less than this fraction.
+    pub cost_rtol: f64,
+    /// Stop when the scaled step is smaller than this.
+    pub step_tol: f64,
+    /// Stop when every residual is at most this in magnitude (`≤ 0`: never).
+    pub residual_tol: f64,
+}
+
+/// Result of [`bounded_lm`].
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct LmOutcome<const N: usize> {
+    /// Final parameters.
+    pub p: [f64; N],
+    /// Final cost `‖r‖²`.
+    pub cost: f64,
+    /// Cost after every accepted step (first: the initial guess).
+    pub history: Vec<f64>,
+    /// Iterations (accepted and rejected).
+    pub iterations: usize,
+    /// Why it stopped.
+    pub termination: String,
+}
+
+/// One residual evaluation for [`bounded_lm`]: residuals, Jacobian `∂r/∂p` (rows × `N`) and a
+/// state handed to `commit` if the point is accepted.
+pub(crate) type LmEval<S> = (DVector<f64>, DMatrix<f64>, S);
+
+/// The residual function of [`bounded_lm`]: parameters → [`LmEval`], or an error (a failed
+/// equilibrium).
+pub(crate) type LmFn<'a, const N: usize, S> =
+    dyn FnMut(&[f64; N]) -> Result<LmEval<S>, ShellError> + 'a;
+
+/// The bounded Levenberg–Marquardt iteration of [`fit`] (and of the bending fit) for `N`
+/// generic parameters: Marquardt damping of `JᵀJ` in scaled parameters `p_k / scale_k`,
+/// projection onto `[lower, upper]` followed by `constrain` (further constraints, e.g.
+/// `|kxy| ≤ 0.95 √(kxx kyy)`), an active set for parameters on a bound whose descent points
+/// outward, and `fixed` parameters held. A trial point whose evaluation fails is rejected like
+/// one that increases the cost; a failure at the initial point is an error.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn bounded_lm<const N: usize, S>(
+    p0: [f64; N],
+    lower: [f64; N],
+    upper: [f64; N],
+    fixed: [bool; N],
+    scale: [f64; N],
+    settings: &LmSettings,
+    constrain: &dyn Fn(&mut [f64; N]),
+    eval: &mut LmFn<'_, N, S>,
+    commit: &mut dyn FnMut(S),
+    mut progress: Option<Progress<'_>>,
+) -> Result<LmOutcome<N>, ShellError> {
+    let project = |p: &mut [f64; N]| {
+        for k in 0..N {
+            p[k] = p[k].clamp(lower[k], upper[k]);
+        }
+        constrain(p);
+    };
+    let mut p = p0;
+    project(&mut p);
+    let (mut r, mut jac, state) = eval(&p)?;
+    commit(state);
+    let mut cost = r.norm_squared();
+    let mut history = vec![cost];
+    let mut lambda = 1e-3;
+    let mut iterations = 0;
+    let mut termination = String::from("iteration limit");
+    while iterations < settings.max_iterations {
+        if settings.residual_tol > 0.0 && r.amax() <= settings.residual_tol {
+            termination = "residuals below tolerance".into();
+            break;
+        }
+        iterations += 1;
+        let j = DMatrix::from_fn(jac.nrows(), N, |row, k| {
+            if fixed[k] {
+                0.0
+            } else {
+                jac[(row, k)] * scale[k]
+            }
+        });
+        let jtj = j.transpose() * &j;
+        let jtr = j.transpose() * &r;
+        if jtr.amax() <= 1e-14 * cost.max(f64::MIN_POSITIVE).sqrt() {
+            termination = "gradient at rounding level".into();
+            break;
+        }
+        let held: [bool; N] = std::array::from_fn(|k| {
+            fixed[k] || (p[k] <= lower[k] && jtr[k] > 0.0) || (p[k] >= upper[k] && jtr[k] < 0.0)
+        });
+        let mut a = jtj.clone();
+        let mut rhs = -&jtr;
+        for k in 0..N {
+            a[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
+            if held[k] {
+                for l in 0..N {
+                    a[(k, l)] = 0.0;
+                    a[(l, k)] = 0.0;
+                }
+                a[(k, k)] = 1.0;
+                rhs[k] = 0.0;
+            }
+        }
+        let Some(step) = a.lu().solve(&rhs) else {
+            lambda *= 4.0;
+            continue;
+        };
+        let mut trial = p;
+        for k in 0..N {
+            trial[k] += step[k] * scale[k];
+        }
+        project(&mut trial);
+        let moved = (0..N)
+            .map(|k| ((trial[k] - p[k]) / scale[k]).abs())
+            .fold(0.0, f64::max);
+        if moved <= settings.step_tol {
+            termination = "step below tolerance".into();
+            break;
+        }
+        let accepted = match eval(&trial) {
+            Ok((rt, jt, st)) => {
+                let ct = rt.norm_squared();
+                if ct < cost {
+                    Some((rt, jt, st, ct))
+                } else {
+                    None
+                }
+            }
+            Err(_) => None,
+        };
+        match accepted {
+            Some((rt, jt, st, ct)) => {
+                let decrease = (cost - ct) / cost.max(f64::MIN_POSITIVE);
+                p = trial;
+                commit(st);
+                r = rt;
+                jac = jt;
+                cost = ct;
+                history.push(cost);
+                lambda = (lambda / 3.0).max(1e-12);
+                if let Some(cb) = progress.as_mut() {
+                    cb(iterations, cost);
+                }
+                if decrease < settings.cost_rtol {
+                    termination = "cost decrease below tolerance".into();
+                    break;
+                }
+            }
+            None => {
+                lambda *= 4.0;
+                if lambda > 1e12 {
+                    termination = "damping limit (no further decrease)".into();
+                    break;
+                }
+            }
+        }
+    }
+    Ok(LmOutcome {
+        p,
+        cost,
+        history,
+        iterations,
+        termination,
+    })
+}
