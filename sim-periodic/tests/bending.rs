@@ -4,20 +4,13 @@
 use sim_periodic::coarse::{Coarse, Strain};
 use sim_periodic::curves::bending_curve;
 use sim_periodic::database::relax_reference;
-use sim_periodic::periodic::{
-    EquilibriumSettings, PeriodicTile, YarnModel, initial_dofs, solve_equilibrium,
-};
+use sim_periodic::periodic::{EquilibriumSettings, YarnModel, solve_equilibrium};
 use sim_periodic::tile::Tile;
-use solver::Assembler;
+
+mod common;
 
 fn relaxed() -> (Tile, YarnModel) {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../tests/data/patterns/stockinette.pyp"
-    );
-    let tile = sim_periodic::pyp::read_pyp(path)
-        .expect("the real tile loads")
-        .tile;
+    let tile = common::stockinette();
     let model = YarnModel::default_for_radius(tile.radius);
     let (tile, _) = relax_reference(&tile, &model, &EquilibriumSettings::default()).unwrap();
     (tile, model)
@@ -33,55 +26,7 @@ fn bent_tile_energy_has_consistent_gradient_and_hessian() {
             sy: 0.0,
         })
         .bent(axis, 80.0);
-        let mut x = initial_dofs(&tile).unwrap();
-        let n = tile.n_vertices();
-        for (i, xi) in x.iter_mut().enumerate() {
-            let scale = if i < 3 * n { 0.05 * tile.radius } else { 0.05 };
-            *xi += scale * ((i as f64) * 0.7).sin();
-        }
-        let pairs = PeriodicTile::find_pairs(&tile, &model, &coarse, &x, 1.5).unwrap();
-        let problem = PeriodicTile::new(&tile, model, coarse, pairs).unwrap();
-        let mut asm = Assembler::new(&problem).unwrap();
-        let a = asm.assemble(&problem, &x, false).unwrap();
-        let gradient = a.gradient.to_vec();
-        let lower = a.hessian.to_dense();
-        let hessian = |i: usize, j: usize| if i >= j { lower[(i, j)] } else { lower[(j, i)] };
-        let step = |i: usize| if i < 3 * n { 1e-6 * tile.radius } else { 1e-6 };
-        let gmax = gradient.iter().fold(0.0f64, |m, g| m.max(g.abs()));
-        let mut y = x.clone();
-        for i in 0..x.len() {
-            let h = step(i);
-            y[i] = x[i] + h;
-            let ep = asm.energy(&problem, &y).unwrap();
-            y[i] = x[i] - h;
-            let em = asm.energy(&problem, &y).unwrap();
-            y[i] = x[i];
-            let fd = (ep - em) / (2.0 * h);
-            assert!(
-                (fd - gradient[i]).abs() <= 1e-5 * gmax,
-                "axis {axis} gradient {i}: {} vs {fd}",
-                gradient[i]
-            );
-        }
-        let hmax = (0..x.len())
-            .map(|i| hessian(i, i).abs())
-            .fold(0.0, f64::max);
-        for j in (0..x.len()).step_by(17) {
-            let h = step(j);
-            y[j] = x[j] + h;
-            let gp = asm.gradient(&problem, &y).unwrap().1.to_vec();
-            y[j] = x[j] - h;
-            let gm = asm.gradient(&problem, &y).unwrap().1.to_vec();
-            y[j] = x[j];
-            for i in 0..x.len() {
-                let fd = (gp[i] - gm[i]) / (2.0 * h);
-                assert!(
-                    (fd - hessian(i, j)).abs() <= 1e-5 * hmax,
-                    "axis {axis} H[{i},{j}]: {} vs {fd}",
-                    hessian(i, j)
-                );
-            }
-        }
+        common::assert_assembled_derivatives(&tile, model, coarse, 17);
     }
 }
 

@@ -1,0 +1,92 @@
+//! Helpers shared by the integration tests.
+
+// Each test binary includes this module and uses only part of it.
+#![allow(dead_code)]
+
+use sim_periodic::coarse::Coarse;
+use sim_periodic::periodic::{PeriodicTile, YarnModel, initial_dofs};
+use sim_periodic::tile::Tile;
+use solver::Assembler;
+
+/// The real stockinette tile of the test data.
+pub fn stockinette() -> Tile {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/patterns/stockinette.pyp"
+    );
+    sim_periodic::pyp::read_pyp(path)
+        .expect("the real tile loads")
+        .tile
+}
+
+/// A deterministic, smooth perturbation of the DOFs (fluctuations ~0.05 R, twists ~0.05 rad).
+pub fn perturbed(tile: &Tile) -> Vec<f64> {
+    let mut x = initial_dofs(tile).unwrap();
+    let n = tile.n_vertices();
+    for (i, xi) in x.iter_mut().enumerate() {
+        let scale = if i < 3 * n { 0.05 * tile.radius } else { 0.05 };
+        *xi += scale * ((i as f64) * 0.7).sin();
+    }
+    x
+}
+
+/// Checks the assembled gradient of the tile energy under `coarse` at the perturbed DOFs
+/// against central differences of the energy (every DOF), and every `stride`-th Hessian
+/// column against central differences of the gradient; both to 1e-5 of the largest entry
+/// (Hessian entries coupling a position to a twist are scaled by R).
+pub fn assert_assembled_derivatives(tile: &Tile, model: YarnModel, coarse: Coarse, stride: usize) {
+    let x = perturbed(tile);
+    let pairs = PeriodicTile::find_pairs(tile, &model, &coarse, &x, 1.5).unwrap();
+    assert!(pairs.len() > 100, "contacts expected in a knit tile");
+    let problem = PeriodicTile::new(tile, model, coarse, pairs).unwrap();
+    let mut asm = Assembler::new(&problem).unwrap();
+    let a = asm.assemble(&problem, &x, false).unwrap();
+    assert!(a.energy.is_finite());
+    let gradient = a.gradient.to_vec();
+    // The assembler stores the lower triangle of the symmetric Hessian.
+    let lower = a.hessian.to_dense();
+    let hessian = |i: usize, j: usize| if i >= j { lower[(i, j)] } else { lower[(j, i)] };
+    // Positions are in m (~1e-3), twists in rad: a step per kind.
+    let n = tile.n_vertices();
+    let step = |i: usize| if i < 3 * n { 1e-6 * tile.radius } else { 1e-6 };
+    let gmax = gradient.iter().fold(0.0f64, |m, g| m.max(g.abs()));
+    let mut y = x.clone();
+    for i in 0..x.len() {
+        let h = step(i);
+        y[i] = x[i] + h;
+        let ep = asm.energy(&problem, &y).unwrap();
+        y[i] = x[i] - h;
+        let em = asm.energy(&problem, &y).unwrap();
+        y[i] = x[i];
+        let fd = (ep - em) / (2.0 * h);
+        assert!(
+            (fd - gradient[i]).abs() <= 1e-5 * gmax,
+            "gradient {i}: {} vs fd {fd}",
+            gradient[i]
+        );
+    }
+    let hmax = (0..x.len())
+        .map(|i| hessian(i, i).abs())
+        .fold(0.0, f64::max);
+    for j in (0..x.len()).step_by(stride) {
+        let h = step(j);
+        y[j] = x[j] + h;
+        let gp = asm.gradient(&problem, &y).unwrap().1.to_vec();
+        y[j] = x[j] - h;
+        let gm = asm.gradient(&problem, &y).unwrap().1.to_vec();
+        y[j] = x[j];
+        for i in 0..x.len() {
+            let fd = (gp[i] - gm[i]) / (2.0 * h);
+            let scale = if (i < 3 * n) == (j < 3 * n) {
+                hmax
+            } else {
+                hmax * tile.radius
+            };
+            assert!(
+                (fd - hessian(i, j)).abs() <= 1e-5 * scale,
+                "Hessian ({i}, {j}): {} vs fd {fd}",
+                hessian(i, j)
+            );
+        }
+    }
+}
