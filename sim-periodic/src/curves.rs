@@ -231,7 +231,8 @@ fn root_find(
         };
     let converged =
         |ss: f64, sc: f64| sc.abs() <= settings.stress_abs_tol + settings.stress_rel_tol * ss.abs();
-    let (mut c0, (mut ss0, mut f0, mut eq0)) = (guess, eval(guess, &mut last_dofs)?);
+    let mut c0 = guess;
+    let mut f0 = eval(guess, &mut last_dofs)?.1;
     // Second point: a small step of c (the secant then finds the sign of dσ_c/dc itself).
     let mut c1 = c0 + if f0 > 0.0 { 0.01 } else { -0.01 };
     let (mut ss1, mut f1, mut eq1) = eval(c1, &mut last_dofs)?;
@@ -271,16 +272,15 @@ fn root_find(
                 }
                 side = 1;
             } else {
-                (c0, ss0, f0, eq0) = (c1, ss1, f1, eq1);
+                (c0, f0) = (c1, f1);
                 side = -1;
             }
         } else {
             bracket = f2.signum() != f1.signum();
-            (c0, ss0, f0, eq0) = (c1, ss1, f1, eq1);
+            (c0, f0) = (c1, f1);
         }
         (c1, ss1, f1, eq1) = (c2, ss2, f2, eq2);
     }
-    let _ = (ss0, &eq0);
     Err(CurveError::RootFind {
         direction: name,
         s,

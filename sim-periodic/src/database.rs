@@ -275,24 +275,30 @@ fn relax_period_once(
     ))))
 }
 
-/// The material-space displacement rows `(Δx, Δy, Δz, Δθ)` of an equilibrium (seed 004
-/// Eq. 18), per vertex.
+/// The material-space displacement rows `(Δx, Δy, Δz, Δθ)` of the equilibrium DOFs `dofs`
+/// under the in-plane `coarse` map (seed 004 Eq. 18), per vertex.
 pub fn material_displacements(
     tile: &Tile,
-    eq: &Equilibrium,
+    coarse: &Coarse,
+    dofs: &[f64],
 ) -> Result<Vec<[f64; 4]>, PeriodicError> {
+    if coarse.curvature.is_some_and(|c| c.kappa != 0.0) {
+        return Err(PeriodicError::Invalid(
+            "the pullback (Eq. 18) is implemented for in-plane deformations only".into(),
+        ));
+    }
     let topology = tile.topology()?;
     let n = tile.n_vertices();
-    let inverse =
-        eq.coarse.f.try_inverse().ok_or_else(|| {
-            PeriodicError::Invalid(format!("coarse map {} is singular", eq.coarse.f))
-        })?;
+    let inverse = coarse
+        .f
+        .try_inverse()
+        .ok_or_else(|| PeriodicError::Invalid(format!("coarse map {} is singular", coarse.f)))?;
     Ok((0..n)
         .map(|v| {
-            let u = Vector3::new(eq.dofs[3 * v], eq.dofs[3 * v + 1], eq.dofs[3 * v + 2]);
+            let u = Vector3::new(dofs[3 * v], dofs[3 * v + 1], dofs[3 * v + 2]);
             let plane = inverse * u.xy();
             let e = topology.outgoing(v);
-            [plane.x, plane.y, u.z, eq.dofs[3 * n + e] - tile.twists[v]]
+            [plane.x, plane.y, u.z, dofs[3 * n + e] - tile.twists[v]]
         })
         .collect())
 }
@@ -441,19 +447,13 @@ pub fn generate(
         |v: usize, [i, j, k]: [usize; 3]| i + dims[0] * (j + dims[1] * (k + dims[2] * v));
     for slot in results {
         let (record, dofs) = slot.expect("every sample solved");
-        let eq = Equilibrium {
-            coarse: Coarse::from_strain(&record.strain),
-            dofs,
-            energy: record.density * tile.period[0] * tile.period[1],
-            density: record.density,
-            stress: record.stress,
-            pairs: vec![],
-            iterations: record.iterations,
-        };
-        let rows = material_displacements(tile, &eq).map_err(|source| GenerationError::Solve {
-            strain: record.strain,
-            bisections: 0,
-            source,
+        let coarse = Coarse::from_strain(&record.strain);
+        let rows = material_displacements(tile, &coarse, &dofs).map_err(|source| {
+            GenerationError::Solve {
+                strain: record.strain,
+                bisections: 0,
+                source,
+            }
         })?;
         for (v, row) in rows.iter().enumerate() {
             if !row.iter().all(|x| x.is_finite()) {

@@ -8,15 +8,8 @@ use sim_periodic::database::{
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel, solve_equilibrium};
 use sim_periodic::tile::Tile;
 
-fn stockinette() -> Tile {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../tests/data/patterns/stockinette.pyp"
-    );
-    sim_periodic::pyp::read_pyp(path)
-        .expect("the real tile loads")
-        .tile
-}
+mod common;
+use common::stockinette;
 
 fn relaxed() -> (Tile, YarnModel) {
     let tile = stockinette();

@@ -18,13 +18,8 @@ use solver::Assembler;
 
 const R: f64 = 1e-3;
 
-fn stockinette() -> Tile {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../tests/data/patterns/stockinette.pyp"
-    );
-    read_pyp(path).expect("the real tile loads").tile
-}
+mod common;
+use common::stockinette;
 
 /// Coarse test resolution: 16 vertices per knit loop, 3 per weave crossing.
 fn test_params(pattern: Pattern) -> PatternParams {

@@ -7,15 +7,8 @@ use sim_periodic::database::{DatabaseSettings, continue_to, relax_reference};
 use sim_periodic::periodic::{Equilibrium, EquilibriumSettings, YarnModel, initial_dofs};
 use sim_periodic::tile::Tile;
 
-fn stockinette() -> Tile {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../tests/data/patterns/stockinette.pyp"
-    );
-    sim_periodic::pyp::read_pyp(path)
-        .expect("the real tile loads")
-        .tile
-}
+mod common;
+use common::stockinette;
 
 fn assert_finite(eq: &Equilibrium) {
     assert!(eq.dofs.iter().all(|v| v.is_finite()));

@@ -99,6 +99,22 @@ pub fn axes(n: usize) -> [Vec<f64>; 3] {
     ]
 }
 
+/// The `n³` databases of every density in `densities`, with one progress bar of `ctx` over
+/// all their samples.
+pub fn databases(
+    ctx: &crate::FigureContext,
+    densities: &[usize],
+) -> anyhow::Result<Vec<Arc<RealDatabase>>> {
+    let total: usize = densities.iter().map(|n| n * n * n).sum();
+    let progress = ctx.progress(total as u64, "database samples");
+    let dbs = densities
+        .iter()
+        .map(|&n| database(n, &|| progress.inc(1)))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    progress.finish_and_clear();
+    Ok(dbs)
+}
+
 /// The real `n³` database of the relaxed tile, generated on first use in this process
 /// (`progress` is called after every solved sample) and reused afterwards.
 pub fn database(n: usize, progress: &(dyn Fn() + Sync)) -> anyhow::Result<Arc<RealDatabase>> {

@@ -27,13 +27,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let reference = real::reference()?;
     let tile = &reference.tile;
     let r = tile.radius;
-    let total: usize = densities.iter().map(|n| n * n * n).sum();
-    let progress = ctx.progress(total as u64, "database samples");
-    let dbs = densities
-        .iter()
-        .map(|&n| real::database(n, &|| progress.inc(1)))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    progress.finish_and_clear();
+    let dbs = real::databases(ctx, densities)?;
 
     let cells = if ctx.quick { 16.0 } else { 32.0 };
     let quads = if ctx.quick { 32 } else { 64 };

@@ -52,13 +52,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let densities: &[usize] = if ctx.quick { &[2, 3] } else { &[3, 5, 9] };
     let reference = real::reference()?;
     let tile = &reference.tile;
-    let total: usize = densities.iter().map(|n| n * n * n).sum();
-    let progress = ctx.progress(total as u64, "database samples");
-    let dbs = densities
-        .iter()
-        .map(|&n| real::database(n, &|| progress.inc(1)))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    progress.finish_and_clear();
+    let dbs = real::databases(ctx, densities)?;
 
     let cells = if ctx.quick { 24.0 } else { 48.0 };
     let quads = if ctx.quick { 48 } else { 96 };
