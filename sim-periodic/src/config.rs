@@ -17,7 +17,7 @@
 //! twist = 4e-6                  # k_t (N m²); 0 disables twist
 //! contact_stiffness = [1e3, 1e6]      # soft / stiff barrier phase (J/m²)
 //! contact_radius = [1.0, 0.25]        # phase radii in units of the yarn radius
-//! simpson_intervals = 2         # contact quadrature intervals per edge (even)
+//! simpson_intervals = 4         # contact quadrature intervals per edge (even)
 //!
 //! [solver]
 //! gradient_abs_tol = 1e-9       # J/m (N)

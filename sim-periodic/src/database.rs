@@ -345,30 +345,13 @@ pub fn generate(
     let results: Mutex<Vec<Option<Solved>>> = Mutex::new(vec![None; dims.iter().product()]);
 
     // Solves (or loads) the sample at `index`, warm-started from `from` (strain, DOFs).
-    let index_on = |axis: usize, strain: Strain| -> usize {
-        let v = [strain.sx, strain.sa, strain.sy][axis];
-        axes[axis].iter().position(|&a| a == v).unwrap_or(0)
-    };
-    let solve = |index: [usize; 3],
-                 from: (Strain, &[f64]),
-                 predicted: Option<Vec<f64>>|
-     -> Result<Vec<f64>, GenerationError> {
+    let solve = |index: [usize; 3], from: (Strain, &[f64])| -> Result<Vec<f64>, GenerationError> {
         let strain = strain_at(index);
         let (record, dofs) = match store.load(index, strain, tile)? {
             Some(loaded) => loaded,
             None => {
                 let t = Instant::now();
-                let coarse = Coarse::from_strain(&strain);
-                let predicted = predicted.and_then(|p| {
-                    solve_equilibrium(tile, model, coarse, Some(&p), &settings.attempt()).ok()
-                });
-                let (eq, iterations, substeps) = match predicted {
-                    Some(eq) => {
-                        let iterations = eq.iterations;
-                        (eq, iterations, 1)
-                    }
-                    None => continue_to(tile, model, from, strain, settings)?,
-                };
+                let (eq, iterations, substeps) = continue_to(tile, model, from, strain, settings)?;
                 if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
                     return Err(GenerationError::NonFinite(strain));
                 }
@@ -394,22 +377,10 @@ pub fn generate(
     let line = |axis: usize, seed: [usize; 3], dofs: &[f64]| -> Result<(), GenerationError> {
         let walk = |range: Box<dyn Iterator<Item = usize> + Send>| -> Result<(), GenerationError> {
             let (mut prev_strain, mut prev) = (strain_at(seed), dofs.to_vec());
-            let mut before: Option<(f64, Vec<f64>)> = None; // the sample before `prev`
             for i in range {
                 let mut index = seed;
                 index[axis] = i;
-                // Secant predictor along the line from the last two samples.
-                let value = axes[axis][i];
-                let prev_value = axes[axis][index_on(axis, prev_strain)];
-                let predicted = before.as_ref().map(|(v0, x0)| {
-                    let ratio = (value - prev_value) / (prev_value - v0);
-                    prev.iter()
-                        .zip(x0)
-                        .map(|(p, q)| p + ratio * (p - q))
-                        .collect::<Vec<f64>>()
-                });
-                let next = solve(index, (prev_strain, &prev), predicted)?;
-                before = Some((prev_value, std::mem::replace(&mut prev, next)));
+                prev = solve(index, (prev_strain, &prev))?;
                 prev_strain = strain_at(index);
             }
             Ok(())
@@ -428,7 +399,7 @@ pub fn generate(
     };
 
     // Root, then the sx line, then sy lines per sx, then sa lines per (sx, sy).
-    let root_dofs = solve(root, (Strain::ZERO, &rest), None)?;
+    let root_dofs = solve(root, (Strain::ZERO, &rest))?;
     line(0, root, &root_dofs)?;
     (0..dims[0]).into_par_iter().try_for_each(|i| {
         let seed = [i, root[1], root[2]];

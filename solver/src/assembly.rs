@@ -65,6 +65,15 @@ pub trait Problem: Sync {
         let mut grad = vec![0.0; self.stencil_dofs(k).len()];
         self.eval_stencil(k, x, &mut grad, None)
     }
+
+    /// The largest step fraction `α_max > 0` for which `x + α dx` is admissible for every
+    /// `α ∈ [0, α_max]`, e.g. free of yarn pass-through (a conservative continuous collision
+    /// filter as in IPC, Li et al. 2020, §4.3). Newton's line search starts at
+    /// `min(1, α_max)`. The default, `+∞`, imposes nothing.
+    fn max_step(&self, x: &[f64], dx: &[f64]) -> f64 {
+        let _ = (x, dx);
+        f64::INFINITY
+    }
 }
 
 /// Marks a local Hessian entry that is not stored (strict upper triangle or touches a fixed DOF).

@@ -16,6 +16,9 @@
 //! E(x + α Δx) ≤ E(x) + c α gᵀΔx + ε_E,       ε_E = energy_noise_tolerance · Σ_k |E_k(x)|.
 //! ```
 //!
+//! The search starts at `α = min(1, α_max)` with `α_max` from [`Problem::max_step`] (a
+//! problem-defined admissibility filter, e.g. continuous collision detection; `+∞` by default).
+//!
 //! `ε_E` is a rounding allowance in the spirit of the "approximate Wolfe" condition of Hager &
 //! Zhang (2006, *ACM TOMS* 32(1)): close to the minimum, true energy decreases fall below the
 //! rounding error of the summed energy, and a strict test would reject good Newton steps.
@@ -407,7 +410,10 @@ fn line_search<P: Problem + ?Sized>(
     if !descent && !negligible {
         return Ok(LineSearch::Failed { backtracks: 0 });
     }
-    let mut alpha = 1.0;
+    let mut alpha = problem.max_step(x, dx).min(1.0);
+    if alpha.is_nan() || alpha <= 0.0 {
+        return Ok(LineSearch::Failed { backtracks: 0 });
+    }
     for backtracks in 0..=settings.max_backtracks {
         for ((t, &xi), &di) in x_trial.iter_mut().zip(x).zip(dx) {
             *t = if di != 0.0 { xi + alpha * di } else { xi };

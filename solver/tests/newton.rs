@@ -227,6 +227,60 @@ fn line_search_rejects_non_finite_trials_and_non_finite_start_fails() {
     );
 }
 
+/// [`LogBarrier`] whose admissible steps move `x` by at most `max_move` (a stand-in for a
+/// collision filter).
+struct Filtered(LogBarrier, f64);
+
+impl Problem for Filtered {
+    fn n_dofs(&self) -> usize {
+        1
+    }
+    fn n_stencils(&self) -> usize {
+        1
+    }
+    fn stencil_dofs(&self, k: usize) -> &[usize] {
+        self.0.stencil_dofs(k)
+    }
+    fn eval_stencil(&self, k: usize, x: &[f64], g: &mut [f64], h: Option<&mut [f64]>) -> f64 {
+        self.0.eval_stencil(k, x, g, h)
+    }
+    fn max_step(&self, _: &[f64], dx: &[f64]) -> f64 {
+        self.1 / dx[0].abs()
+    }
+}
+
+#[test]
+fn line_search_starts_within_the_problem_step_filter() {
+    // From x = 10 the Newton step is −90: unfiltered, the first trial is at −80.
+    let mut x = vec![10.0];
+    let report = minimize(
+        &Filtered(LogBarrier([0]), 0.5),
+        &mut x,
+        &[false],
+        &NewtonSettings::default(),
+    )
+    .unwrap();
+    assert!((x[0] - 1.0).abs() < 1e-10);
+    assert!(
+        report.step_lengths[0] <= 0.5 / 90.0 + 1e-15,
+        "{:?}",
+        report.step_lengths
+    );
+    // Travelling 9 in moves of at most 0.5 takes at least 18 steps.
+    assert!(report.iterations >= 18, "{}", report.iterations);
+
+    // A filter that admits no step at all is a line-search failure, not a hang.
+    let mut x = vec![10.0];
+    let err = minimize(
+        &Filtered(LogBarrier([0]), 0.0),
+        &mut x,
+        &[false],
+        &NewtonSettings::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(err, SolveError::LineSearchFailed(_)), "{err}");
+}
+
 #[test]
 fn invalid_settings_and_lengths_are_errors() {
     let chain = LinearChain::uniform(3, 1.0, 1.0);
