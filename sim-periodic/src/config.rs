@@ -33,6 +33,7 @@
 //! sx = { min = -0.2, max = 1.0, n = 9 }   # or an explicit list: sx = [-0.2, 0.0, 0.5]
 //! sa = { min = -0.7, max = 0.7, n = 9 }
 //! sy = { min = -0.2, max = 1.0, n = 9 }
+//! fill_unsolved = false         # true: fill unsolvable samples from their parent, report them
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -185,6 +186,11 @@ pub struct DatabaseConfig {
     /// sy samples.
     #[serde(default = "default_stretch_axis")]
     pub sy: AxisConfig,
+    /// Fill a sample that cannot be solved from its continuation parent and go on
+    /// ([`crate::database::DatabaseSettings::fill_unsolved`]); default false (stop with
+    /// the error).
+    #[serde(default)]
+    pub fill_unsolved: bool,
 }
 
 impl Default for DatabaseConfig {
@@ -193,6 +199,7 @@ impl Default for DatabaseConfig {
             sx: default_stretch_axis(),
             sa: default_shear_axis(),
             sy: default_stretch_axis(),
+            fill_unsolved: false,
         }
     }
 }

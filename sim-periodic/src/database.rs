@@ -21,6 +21,14 @@
 //! neighbour one step closer to the root. A step whose Newton solve fails is split in half
 //! (up to [`DatabaseSettings::max_bisections`] times) before the sample is reported as failed.
 //!
+//! **Unsolvable samples.** Every Newton step is filtered so that no yarn passes through
+//! another ([`crate::periodic::PeriodicTile`]'s `max_step`). Far out in the strain range
+//! (e.g. 100 % weft with 25 % warp stretch and shear on the real stockinette with the
+//! illustrative yarn model) the tile then has no reachable equilibrium: the yarns are pulled
+//! into each other until Newton stalls against the filter. Such a sample is an error by
+//! default; with [`DatabaseSettings::fill_unsolved`] it is filled from its continuation parent,
+//! flagged in its [`SampleRecord`] and reported, so a long run still yields a complete grid.
+//!
 //! **Resumability.** With a checkpoint directory, every finished sample is written there at
 //! once (atomically: temporary file, then rename) with its DOFs; a rerun with the same inputs
 //! loads them and solves only what is missing. A fingerprint of the inputs (tile, model, axes,
@@ -37,7 +45,8 @@ use crate::coarse::{Coarse, Strain};
 use crate::madypg::{AXIS_NAMES, Database, DatabaseError};
 use crate::patterns::{PatternError, RelaxReport, RelaxSettings, relax};
 use crate::periodic::{
-    Equilibrium, EquilibriumSettings, PeriodicError, YarnModel, initial_dofs, solve_equilibrium,
+    Equilibrium, EquilibriumSettings, PeriodicError, PeriodicTile, YarnModel, initial_dofs,
+    solve_equilibrium,
 };
 use crate::tile::Tile;
 
@@ -53,6 +62,14 @@ pub struct DatabaseSettings {
     /// (no cap with the default settings): on the stockinette 5³ grid a cap of 40 made the
     /// jammed corner (−0.2, −0.7, −0.2) fail, while uncapped attempts reach it.
     pub attempt_iterations: usize,
+    /// When a sample cannot be solved even with halved steps, fill it from its continuation
+    /// parent (the last solved sample on its line: that equilibrium's fluctuation, pulled
+    /// back under the sample's own strain) and go on, instead of stopping with
+    /// [`GenerationError::Solve`]. Such samples have [`SampleRecord::solved`] `false`, their
+    /// Ψ and stress are those of the parent's state under the sample's strain (not an
+    /// equilibrium), they are not checkpointed (a resumed run tries them again), and the
+    /// CLI reports them. Default `false`.
+    pub fill_unsolved: bool,
 }
 
 impl Default for DatabaseSettings {
@@ -61,6 +78,7 @@ impl Default for DatabaseSettings {
             equilibrium: EquilibriumSettings::default(),
             max_bisections: 4,
             attempt_iterations: 200,
+            fill_unsolved: false,
         }
     }
 }
@@ -125,6 +143,9 @@ pub struct SampleRecord {
     pub seconds: f64,
     /// Whether it was loaded from a checkpoint rather than solved.
     pub resumed: bool,
+    /// `false` for a sample filled from its continuation parent
+    /// ([`DatabaseSettings::fill_unsolved`]).
+    pub solved: bool,
 }
 
 /// The result of [`generate`].
@@ -344,44 +365,70 @@ pub fn generate(
     };
     let results: Mutex<Vec<Option<Solved>>> = Mutex::new(vec![None; dims.iter().product()]);
 
-    // Solves (or loads) the sample at `index`, warm-started from `from` (strain, DOFs).
-    let solve = |index: [usize; 3], from: (Strain, &[f64])| -> Result<Vec<f64>, GenerationError> {
+    // Solves (or loads) the sample at `index`, warm-started from `from` (strain, DOFs);
+    // returns the equilibrium its children continue from (the parent's when unsolved).
+    let solve = |index: [usize; 3], from: (Strain, &[f64])| -> Result<Parent, GenerationError> {
         let strain = strain_at(index);
-        let (record, dofs) = match store.load(index, strain, tile)? {
-            Some(loaded) => loaded,
-            None => {
-                let t = Instant::now();
-                let (eq, iterations, substeps) = continue_to(tile, model, from, strain, settings)?;
-                if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
-                    return Err(GenerationError::NonFinite(strain));
+        let t = Instant::now();
+        let (record, parent) = match store.load(index, strain, tile)? {
+            Some((record, dofs)) => (record, (strain, dofs)),
+            None => match continue_to(tile, model, from, strain, settings) {
+                Ok((eq, iterations, substeps)) => {
+                    if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
+                        return Err(GenerationError::NonFinite(strain));
+                    }
+                    let record = SampleRecord {
+                        index,
+                        strain,
+                        density: eq.density,
+                        stress: eq.stress,
+                        iterations,
+                        substeps,
+                        seconds: t.elapsed().as_secs_f64(),
+                        resumed: false,
+                        solved: true,
+                    };
+                    store.save(&record, &eq.dofs)?;
+                    (record, (strain, eq.dofs))
                 }
-                let record = SampleRecord {
-                    index,
-                    strain,
-                    density: eq.density,
-                    stress: eq.stress,
-                    iterations,
-                    substeps,
-                    seconds: t.elapsed().as_secs_f64(),
-                    resumed: false,
-                };
-                store.save(&record, &eq.dofs)?;
-                (record, eq.dofs)
-            }
+                Err(GenerationError::Solve { .. }) if settings.fill_unsolved => {
+                    let (density, stress) = state_under(tile, model, strain, from.1, settings)
+                        .map_err(|source| GenerationError::Solve {
+                            strain,
+                            bisections: 0,
+                            source,
+                        })?;
+                    if !density.is_finite() || !stress.iter().all(|v| v.is_finite()) {
+                        return Err(GenerationError::NonFinite(strain));
+                    }
+                    let record = SampleRecord {
+                        index,
+                        strain,
+                        density,
+                        stress,
+                        iterations: 0,
+                        substeps: 0,
+                        seconds: t.elapsed().as_secs_f64(),
+                        resumed: false,
+                        solved: false,
+                    };
+                    (record, (from.0, from.1.to_vec()))
+                }
+                Err(e) => return Err(e),
+            },
         };
         progress(&record);
-        results.lock().expect("results lock")[flat(index)] = Some((record, dofs.clone()));
-        Ok(dofs)
+        results.lock().expect("results lock")[flat(index)] = Some((record, parent.clone()));
+        Ok(parent)
     };
-    // Solves the samples along one axis outward from `seed` (already solved, with `dofs`).
-    let line = |axis: usize, seed: [usize; 3], dofs: &[f64]| -> Result<(), GenerationError> {
+    // Solves the samples along one axis outward from `seed` (already solved).
+    let line = |axis: usize, seed: [usize; 3], from: Parent| -> Result<(), GenerationError> {
         let walk = |range: Box<dyn Iterator<Item = usize> + Send>| -> Result<(), GenerationError> {
-            let (mut prev_strain, mut prev) = (strain_at(seed), dofs.to_vec());
+            let mut prev = from.clone();
             for i in range {
                 let mut index = seed;
                 index[axis] = i;
-                prev = solve(index, (prev_strain, &prev))?;
-                prev_strain = strain_at(index);
+                prev = solve(index, (prev.0, &prev.1))?;
             }
             Ok(())
         };
@@ -391,23 +438,23 @@ pub fn generate(
         );
         up.and(down)
     };
-    let dofs_at = |index: [usize; 3]| -> Vec<f64> {
+    let parent_at = |index: [usize; 3]| -> Parent {
         results.lock().expect("results lock")[flat(index)]
             .as_ref()
-            .map(|(_, d)| d.clone())
+            .map(|(_, p)| p.clone())
             .expect("continuation parent solved before its children")
     };
 
     // Root, then the sx line, then sy lines per sx, then sa lines per (sx, sy).
-    let root_dofs = solve(root, (Strain::ZERO, &rest))?;
-    line(0, root, &root_dofs)?;
+    let root_parent = solve(root, (Strain::ZERO, &rest))?;
+    line(0, root, root_parent)?;
     (0..dims[0]).into_par_iter().try_for_each(|i| {
         let seed = [i, root[1], root[2]];
-        line(2, seed, &dofs_at(seed))
+        line(2, seed, parent_at(seed))
     })?;
     (0..dims[0] * dims[2]).into_par_iter().try_for_each(|ik| {
         let seed = [ik % dims[0], root[1], ik / dims[0]];
-        line(1, seed, &dofs_at(seed))
+        line(1, seed, parent_at(seed))
     })?;
 
     let n = tile.n_vertices();
@@ -417,7 +464,7 @@ pub fn generate(
     let database_index =
         |v: usize, [i, j, k]: [usize; 3]| i + dims[0] * (j + dims[1] * (k + dims[2] * v));
     for slot in results {
-        let (record, dofs) = slot.expect("every sample solved");
+        let (record, (_, dofs)) = slot.expect("every sample solved or filled");
         let coarse = Coarse::from_strain(&record.strain);
         let rows = material_displacements(tile, &coarse, &dofs).map_err(|source| {
             GenerationError::Solve {
@@ -447,10 +494,39 @@ pub fn generate(
     })
 }
 
-/// A finished sample and its DOFs.
-type Solved = (SampleRecord, Vec<f64>);
+/// An equilibrium children continue from: its strain and DOFs.
+type Parent = (Strain, Vec<f64>);
+
+/// A finished sample and the equilibrium behind its row (its own, or its parent's when
+/// unsolved).
+type Solved = (SampleRecord, Parent);
+
+/// Ψ and the gathered stress of the DOFs `dofs` under `strain` (not an equilibrium there).
+fn state_under(
+    tile: &Tile,
+    model: &YarnModel,
+    strain: Strain,
+    dofs: &[f64],
+    settings: &DatabaseSettings,
+) -> Result<(f64, Matrix2<f64>), PeriodicError> {
+    let coarse = Coarse::from_strain(&strain);
+    let margin = settings.equilibrium.pair_margin;
+    let pairs = PeriodicTile::find_pairs(tile, model, &coarse, dofs, margin)?;
+    let problem = PeriodicTile::new(tile, *model, coarse, pairs)?;
+    let energy = solver::Assembler::new(&problem)?.energy(&problem, dofs)?;
+    Ok((energy / problem.area(), problem.stress(dofs)))
+}
 
 impl DatabaseSettings {
+    /// The settings that determine a solved sample, for the checkpoint fingerprint
+    /// ([`DatabaseSettings::fill_unsolved`] does not: unsolved samples are never checkpointed).
+    fn solved_fingerprint(&self) -> String {
+        format!(
+            "DatabaseSettings {{ equilibrium: {:?}, max_bisections: {:?}, attempt_iterations: {:?} }}",
+            self.equilibrium, self.max_bisections, self.attempt_iterations
+        )
+    }
+
     /// Equilibrium settings of an attempt that may still be halved.
     fn attempt(&self) -> EquilibriumSettings {
         let mut s = self.equilibrium.clone();
@@ -561,7 +637,13 @@ impl Checkpoint {
         std::fs::create_dir_all(dir).map_err(|e| problem(dir, e.to_string()))?;
         let fingerprint = format!(
             "{:016x}\n",
-            fnv1a(format!("{tile:?}|{model:?}|{axes:?}|{settings:?}|{AXIS_NAMES:?}").as_bytes())
+            fnv1a(
+                format!(
+                    "{tile:?}|{model:?}|{axes:?}|{}|{AXIS_NAMES:?}",
+                    settings.solved_fingerprint()
+                )
+                .as_bytes()
+            )
         );
         let path = dir.join(FINGERPRINT_FILE);
         match std::fs::read_to_string(&path) {
@@ -670,6 +752,7 @@ impl Checkpoint {
             substeps: values[6] as usize,
             seconds: 0.0,
             resumed: true,
+            solved: true,
         };
         Ok(Some((record, values[9..].to_vec())))
     }

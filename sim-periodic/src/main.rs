@@ -203,11 +203,12 @@ fn curve(path: &Path) -> Result<()> {
 
 fn database(path: &Path) -> Result<()> {
     let s = setup(path)?;
+    let db = &s.config.database;
     let settings = DatabaseSettings {
         equilibrium: s.config.equilibrium(),
+        fill_unsolved: db.fill_unsolved,
         ..DatabaseSettings::default()
     };
-    let db = &s.config.database;
     let axes = [db.sx.values(), db.sa.values(), db.sy.values()];
     let t = Instant::now();
     let relaxed = reference(&s, &settings.equilibrium)?;
@@ -231,13 +232,13 @@ fn database(path: &Path) -> Result<()> {
         .with_context(|| format!("creating {}", samples_file.display()))?;
     writeln!(
         f,
-        "isx,isa,isy,sx,sa,sy,psi_j_per_m2,p11,p21,p12,p22,newton_iterations,substeps,seconds,resumed"
+        "isx,isa,isy,sx,sa,sy,psi_j_per_m2,p11,p21,p12,p22,newton_iterations,substeps,seconds,resumed,solved"
     )?;
     for r in &generated.samples {
         let p = r.stress;
         writeln!(
             f,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.index[0],
             r.index[1],
             r.index[2],
@@ -252,10 +253,17 @@ fn database(path: &Path) -> Result<()> {
             r.iterations,
             r.substeps,
             r.seconds,
-            r.resumed
+            r.resumed,
+            r.solved
         )?;
     }
     let resumed = generated.samples.iter().filter(|r| r.resumed).count();
+    let unsolved: Vec<[f64; 3]> = generated
+        .samples
+        .iter()
+        .filter(|r| !r.solved)
+        .map(|r| [r.strain.sx, r.strain.sa, r.strain.sy])
+        .collect();
     let iterations: usize = generated.samples.iter().map(|r| r.iterations).sum();
     write_json(
         &s.config.out.join("manifest-database.json"),
@@ -272,6 +280,9 @@ fn database(path: &Path) -> Result<()> {
             "period_m": relaxed.period,
             "samples": total,
             "samples_resumed": resumed,
+            "fill_unsolved": settings.fill_unsolved,
+            "samples_unsolved": unsolved.len(),
+            "unsolved_strains_sx_sa_sy": unsolved,
             "newton_iterations": iterations,
             "generation_seconds": generated.seconds,
             "total_seconds": t.elapsed().as_secs_f64(),
@@ -283,5 +294,13 @@ fn database(path: &Path) -> Result<()> {
         generated.seconds,
         db_dir.display()
     );
+    if !unsolved.is_empty() {
+        eprintln!(
+            "warning: {} of {total} samples could not be solved and were filled from their \
+             continuation parents (solved = false in {}): {unsolved:?}",
+            unsolved.len(),
+            samples_file.display()
+        );
+    }
     Ok(())
 }

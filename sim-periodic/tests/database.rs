@@ -82,6 +82,42 @@ fn database_is_zero_at_rest_matches_direct_solves_and_resumes() {
     assert!(err.to_string().contains("different inputs"), "{err}");
 }
 
+/// A sample that cannot be solved stops the generation with a clear error, or, with
+/// `fill_unsolved`, is filled from its continuation parent, flagged, and not checkpointed.
+/// (Unsolvable here by a 1-iteration Newton budget without halving.)
+#[test]
+fn unsolved_samples_fail_or_are_filled_from_their_parent_and_flagged() {
+    let (tile, model) = relaxed();
+    let mut settings = DatabaseSettings {
+        max_bisections: 0,
+        ..DatabaseSettings::default()
+    };
+    settings.equilibrium.newton.max_iterations = 1;
+    let axes = [vec![0.0, 0.3], vec![0.0], vec![0.0]];
+    let err = generate(&tile, &model, axes.clone(), &settings, None, &|_| {}).unwrap_err();
+    assert!(matches!(err, GenerationError::Solve { .. }), "{err}");
+    assert!(err.to_string().contains("sx, sa, sy) = (0.3, 0, 0)"), "{err}");
+
+    settings.fill_unsolved = true;
+    let dir = scratch_dir("database-unsolved");
+    let filled = generate(&tile, &model, axes, &settings, Some(&dir), &|_| {}).unwrap();
+    let flags: Vec<bool> = filled.samples.iter().map(|s| s.solved).collect();
+    assert_eq!(flags, [true, false]);
+    // The filled row is the parent's (zero) fluctuation under the sample's strain: ΔQ = 0,
+    // and its Ψ is the affinely stretched tile's, above the parent's.
+    let db = &filled.database;
+    let moved = (0..db.n_vertices)
+        .map(|v| db.get(v, 1, 0, 0).unwrap()[..3].iter().fold(0f32, |m, x| m.max(x.abs())))
+        .fold(0f32, f32::max);
+    assert!(moved < 1e-6, "{moved}");
+    let s = &filled.samples;
+    assert!(s[1].density.is_finite() && s[1].density > s[0].density);
+    assert!(s[1].stress.iter().all(|v| v.is_finite()));
+    // Only the solved sample was checkpointed.
+    assert!(dir.join("sample-00-00-00.bin").exists());
+    assert!(!dir.join("sample-01-00-00.bin").exists());
+}
+
 #[test]
 fn inadmissible_or_malformed_axes_are_rejected() {
     let (tile, model) = relaxed();
