@@ -96,7 +96,10 @@ fn unsolved_samples_fail_or_are_filled_from_their_parent_and_flagged() {
     let axes = [vec![0.0, 0.3], vec![0.0], vec![0.0]];
     let err = generate(&tile, &model, axes.clone(), &settings, None, &|_| {}).unwrap_err();
     assert!(matches!(err, GenerationError::Solve { .. }), "{err}");
-    assert!(err.to_string().contains("sx, sa, sy) = (0.3, 0, 0)"), "{err}");
+    assert!(
+        err.to_string().contains("sx, sa, sy) = (0.3, 0, 0)"),
+        "{err}"
+    );
 
     settings.fill_unsolved = true;
     let dir = scratch_dir("database-unsolved");
@@ -107,7 +110,11 @@ fn unsolved_samples_fail_or_are_filled_from_their_parent_and_flagged() {
     // and its Ψ is the affinely stretched tile's, above the parent's.
     let db = &filled.database;
     let moved = (0..db.n_vertices)
-        .map(|v| db.get(v, 1, 0, 0).unwrap()[..3].iter().fold(0f32, |m, x| m.max(x.abs())))
+        .map(|v| {
+            db.get(v, 1, 0, 0).unwrap()[..3]
+                .iter()
+                .fold(0f32, |m, x| m.max(x.abs()))
+        })
         .fold(0f32, f32::max);
     assert!(moved < 1e-6, "{moved}");
     let s = &filled.samples;
