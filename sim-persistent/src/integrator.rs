@@ -1,0 +1,458 @@
+//! Implicit (backward) Euler time stepping as one Newton minimization per step (seed 000 §5:
+//! "implicit-integration algorithm proposed in" ref. 6, Cirio et al. 2014; time step 1 ms).
+//!
+//! With step `h`, coordinates `qₙ`, velocities `vₙ`, Rayleigh damping `D = α M + β K` and the
+//! potential `V` of [`crate::forces`], backward Euler
+//!
+//! ```text
+//! M (vₙ₊₁ − vₙ)/h = −∇V(qₙ₊₁) − D vₙ₊₁,     qₙ₊₁ = qₙ + h vₙ₊₁
+//! ```
+//!
+//! is the stationarity condition of the incremental potential
+//!
+//! ```text
+//! Φ(q) = 1/(2h²) (q − q̂)ᵀ M (q − q̂) + 1/(2h) (q − qₙ)ᵀ D (q − qₙ) + V(q),   q̂ = qₙ + h vₙ,
+//! ```
+//!
+//! which [`solver::NewtonSolver`] minimizes (backtracking line search, diagonal shift when
+//! the Hessian is indefinite, Dirichlet DOFs for pinned positions and pinned sliding
+//! coordinates; the sparsity pattern and symbolic factorization are built once and reused
+//! every step).
+//!
+//! **Documented choices.**
+//! - *Lagged mass matrix.* The state-dependent segment mass matrix
+//!   ([`crate::state::segment_mass_matrix`]) is evaluated at `qₙ` and frozen over the step.
+//! - *Velocity-quadratic terms dropped.* Lagrange's equations for `T = ½ q̇ᵀ M(q) q̇` add
+//!   `Ṁ q̇ − ½ ∂(q̇ᵀ M q̇)/∂q`; we drop them. Their power is
+//!   `q̇ᵀ(Ṁq̇ − ½ ∂(q̇ᵀMq̇)/∂q) = ½ q̇ᵀṀq̇`, exactly what `d/dt (½ q̇ᵀMq̇)` gains from the
+//!   changing `M`, so without them `T + V` drifts at a rate cubic in the velocity (small at
+//!   cloth speeds), on top of backward Euler's O(h) numerical dissipation. The free-swatch
+//!   test measures the total drift and its decrease with `h`.
+//! - *Friction.* The anchored springs of Eq. 5 act with fixed anchors during the Newton solve;
+//!   the stick/slip anchor update runs after each step
+//!   ([`crate::forces::friction::AnchoredSpring::update_anchor`]).
+//! - *Damping.* `D = α M(qₙ) + β K⁺(qₙ)`, with `K⁺` the per-stencil PSD-projected Hessian of
+//!   the elastic terms at the start of the step (so damping is dissipative), both frozen over
+//!   the step like `M`.
+//! - *Step halving.* A step whose Newton solve fails (far from the minimizer, e.g. the first
+//!   undamped step from a layout that is not at rest) is replaced by two half steps,
+//!   recursively ([`StepSettings::max_halvings`]); the state only changes on success.
+
+use crate::forces::quadratic::Quadratic;
+use crate::forces::{ForceSet, Potential, Term, TermKind, build_terms};
+use crate::layout::Layout;
+use crate::params::YarnParams;
+use crate::state::{DofMap, State, gather, kinetic_energy, segment_mass_matrix};
+use crate::topology::Topology;
+use rod::geometry::V3;
+use solver::{NewtonReport, NewtonSettings, NewtonSolver, SolveError};
+
+/// Time-step parameters (SI units).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepSettings {
+    /// Time step h (s). Default 1 ms (seed 000 §5).
+    pub dt: f64,
+    /// Rayleigh mass-damping coefficient α (1/s). Default 0 (Table 1 uses 2–10).
+    pub rayleigh_alpha: f64,
+    /// Rayleigh stiffness-damping coefficient β (s). Default 0 (Table 1 uses 0.01–0.1).
+    pub rayleigh_beta: f64,
+    /// Newton settings of each step. Default: `solver` defaults with a relative gradient
+    /// tolerance of 1e-9, at most 50 iterations and no per-stencil SPD projection: the
+    /// inertia term keeps the step's Hessian positive definite for cloth-sized steps, plain
+    /// Newton then converges in 2–3 iterations where projection needs ≈ 5 (and projects
+    /// every 8 × 8 and 12 × 12 block each iteration); the solver's diagonal shift still
+    /// catches an indefinite Hessian.
+    pub newton: NewtonSettings,
+    /// How often a step whose Newton solve fails may be halved (recursively). Default 4
+    /// (down to dt/16). A step is also a Newton minimization far from its start when the
+    /// layout is not at rest (no rest-shape compensation yet) and damping is off.
+    pub max_halvings: usize,
+}
+
+impl Default for StepSettings {
+    fn default() -> Self {
+        Self {
+            dt: 1e-3,
+            rayleigh_alpha: 0.0,
+            rayleigh_beta: 0.0,
+            newton: NewtonSettings {
+                max_iterations: 50,
+                gradient_rel_tol: 1e-9,
+                project_spd: false,
+                ..NewtonSettings::default()
+            },
+            max_halvings: 4,
+        }
+    }
+}
+
+impl StepSettings {
+    /// Checks the ranges (`dt > 0`, `α, β ≥ 0`, valid Newton settings).
+    pub fn validate(&self) -> Result<(), SimError> {
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(SimError::Invalid(format!(
+                "dt must be > 0, got {}",
+                self.dt
+            )));
+        }
+        for (name, v) in [("α", self.rayleigh_alpha), ("β", self.rayleigh_beta)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(SimError::Invalid(format!(
+                    "Rayleigh {name} must be ≥ 0, got {v}"
+                )));
+            }
+        }
+        self.newton.validate()?;
+        Ok(())
+    }
+}
+
+/// Errors of the simulator.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// Invalid parameters, layout or pins.
+    #[error("invalid simulation input: {0}")]
+    Invalid(String),
+    /// The Newton solve of a step (after all halvings) or of a static equilibrium failed.
+    #[error("Newton solve failed (time step or static equilibrium): {0}")]
+    Solve(#[from] SolveError),
+}
+
+/// What one step did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepReport {
+    /// Newton iterations over all substeps.
+    pub newton_iterations: usize,
+    /// Number of backward Euler solves that succeeded (1 unless the step was halved).
+    pub substeps: usize,
+    /// Number of slips of sliding coordinates (friction anchors moved, Eq. 5), summed over
+    /// the substeps.
+    pub slipped: usize,
+    /// The Newton report of the last successful substep.
+    pub last_newton: Option<NewtonReport>,
+}
+
+/// A fabric under implicit Euler time stepping (see the module documentation).
+pub struct Simulator {
+    topology: Topology,
+    dofs: DofMap,
+    params: YarnParams,
+    settings: StepSettings,
+    potential: Potential,
+    /// Terms `0..n_static` are elastic and gravity; then one inertia term per segment
+    /// (`segment_dofs`), then the damping terms of the elastic terms listed in `damped`.
+    n_static: usize,
+    segment_dofs: Vec<[usize; 8]>,
+    damped: Vec<usize>,
+    fixed: Vec<bool>,
+    state: State,
+    solver: Option<NewtonSolver>,
+    time: f64,
+}
+
+impl Simulator {
+    /// A simulator at rest in `layout`, with the force terms `forces`. Sliding coordinates the
+    /// topology pins (yarn ends, one-yarn nodes) are fixed; node positions are free until
+    /// [`pin_nodes`](Self::pin_nodes).
+    pub fn new(
+        topology: Topology,
+        layout: &Layout,
+        params: YarnParams,
+        forces: ForceSet,
+        settings: StepSettings,
+    ) -> Result<Self, SimError> {
+        params.validate().map_err(SimError::Invalid)?;
+        settings.validate()?;
+        topology
+            .validate()
+            .map_err(|e| SimError::Invalid(e.to_string()))?;
+        let slots_match = layout.sliding.len() == topology.nodes.len()
+            && topology
+                .nodes
+                .iter()
+                .zip(&layout.sliding)
+                .all(|(n, s)| n.passes.len() == s.len());
+        if layout.positions.len() != topology.nodes.len() || !slots_match {
+            return Err(SimError::Invalid(
+                "layout does not match the topology".into(),
+            ));
+        }
+        let dofs = DofMap::new(&topology);
+        let state = State::from_layout(&topology, &dofs, layout);
+        let mut terms = build_terms(&topology, &dofs, &params, &forces, &state.q);
+        let n_static = terms.len();
+        let segment_dofs: Vec<[usize; 8]> = topology
+            .segments()
+            .map(|(y, i)| {
+                let p = &topology.yarns[y].passes;
+                dofs.segment_dofs(p[i], p[i + 1])
+            })
+            .collect();
+        terms.extend(
+            segment_dofs
+                .iter()
+                .map(|d| Term::Inertia(Box::new(Quadratic::zero()), *d)),
+        );
+        let mut damped = Vec::new();
+        if settings.rayleigh_beta > 0.0 {
+            for k in 0..n_static {
+                if let Some(t) = terms[k].damping_form(&state.q, 0.0) {
+                    damped.push(k);
+                    terms.push(t);
+                }
+            }
+        }
+        let potential = Potential::new(dofs.n_dofs(), terms).map_err(SimError::Invalid)?;
+        let mut fixed = vec![false; dofs.n_dofs()];
+        for (n, node) in topology.nodes.iter().enumerate() {
+            for (s, p) in node.passes.iter().enumerate() {
+                if p.sliding_pinned {
+                    fixed[dofs.u(n, s)] = true;
+                }
+            }
+        }
+        Ok(Self {
+            topology,
+            dofs,
+            params,
+            settings,
+            potential,
+            n_static,
+            segment_dofs,
+            damped,
+            fixed,
+            state,
+            solver: None,
+            time: 0.0,
+        })
+    }
+
+    /// Holds the positions of `nodes` fixed (Dirichlet DOFs) from now on.
+    pub fn pin_nodes(&mut self, nodes: &[usize]) -> Result<(), SimError> {
+        for &n in nodes {
+            if n >= self.topology.nodes.len() {
+                return Err(SimError::Invalid(format!("no node {n} to pin")));
+            }
+            let x = self.dofs.x(n);
+            for i in x..x + 3 {
+                self.fixed[i] = true;
+                self.state.v[i] = 0.0;
+            }
+        }
+        self.solver = None; // the pattern depends on the fixed DOFs
+        Ok(())
+    }
+
+    /// Static equilibrium under the current pins: minimizes the potential of the elastic
+    /// terms and gravity (no inertia, no damping) from the current state with
+    /// [`StepSettings::newton`] (iteration limit raised to 200), sets the velocities to zero,
+    /// and then updates the friction anchors (Eq. 5) as a step would. For quasi-static
+    /// loading (driven clamps). Needs pins that remove the rigid motions; time does not
+    /// advance.
+    pub fn solve_static(&mut self) -> Result<NewtonReport, SimError> {
+        let potential = Potential::new(self.dofs.n_dofs(), self.static_terms().to_vec())
+            .map_err(SimError::Invalid)?;
+        let settings = NewtonSettings {
+            max_iterations: 200,
+            ..self.settings.newton.clone()
+        };
+        let mut q = self.state.q.clone();
+        let report = solver::minimize(&potential, &mut q, &self.fixed, &settings)?;
+        let max_force = self.params.friction_max_force;
+        for term in &mut self.potential.terms[..self.n_static] {
+            if let Term::Friction(spring, d) = term {
+                spring.update_anchor(q[d[0]], max_force);
+            }
+        }
+        self.state.q = q;
+        self.state.v.fill(0.0);
+        Ok(report)
+    }
+
+    /// Moves pinned nodes by `displacement` (m) before the next step: driven clamps. Their
+    /// velocity stays zero (the move is a prescribed position, not a dynamic state). Errors
+    /// if a node does not exist or is not pinned.
+    pub fn displace_pinned_nodes(
+        &mut self,
+        nodes: &[usize],
+        displacement: V3,
+    ) -> Result<(), SimError> {
+        for &n in nodes {
+            if n >= self.topology.nodes.len() || !self.fixed[self.dofs.x(n)] {
+                return Err(SimError::Invalid(format!("node {n} is not a pinned node")));
+            }
+        }
+        for &n in nodes {
+            let x = self.dofs.x(n);
+            for k in 0..3 {
+                self.state.q[x + k] += displacement[k];
+            }
+        }
+        Ok(())
+    }
+
+    /// The total force (N) that the yarns (elastic terms and gravity) exert on `nodes`:
+    /// `−Σ ∂V/∂x` over their positions. At equilibrium, a clamp holding pinned nodes applies
+    /// the opposite force.
+    pub fn force_on_nodes(&self, nodes: &[usize]) -> V3 {
+        let g = crate::forces::gradient(self.static_terms(), &self.state.q, self.dofs.n_dofs());
+        let mut f = V3::zeros();
+        for &n in nodes {
+            let x = self.dofs.x(n);
+            f -= V3::new(g[x], g[x + 1], g[x + 2]);
+        }
+        f
+    }
+
+    /// Advances the state by one step of length `dt` (module documentation). If the Newton
+    /// solve of a step fails, the step is replaced by two half steps, recursively, at most
+    /// [`StepSettings::max_halvings`] times; the state only changes on success.
+    pub fn step(&mut self) -> Result<StepReport, SimError> {
+        let mut report = StepReport {
+            newton_iterations: 0,
+            substeps: 0,
+            slipped: 0,
+            last_newton: None,
+        };
+        self.advance(self.settings.dt, 0, &mut report)?;
+        Ok(report)
+    }
+
+    /// One step of length `h`, split in halves on failure (depth `depth`).
+    fn advance(&mut self, h: f64, depth: usize, report: &mut StepReport) -> Result<(), SimError> {
+        match self.solve_step(h, report) {
+            Ok(()) => Ok(()),
+            Err(SimError::Solve(e))
+                if e.report().is_some() && depth < self.settings.max_halvings =>
+            {
+                self.advance(0.5 * h, depth + 1, report)?;
+                self.advance(0.5 * h, depth + 1, report)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// One backward Euler step of length `h`; commits the state only on success.
+    fn solve_step(&mut self, h: f64, report: &mut StepReport) -> Result<(), SimError> {
+        let (alpha, beta) = (self.settings.rayleigh_alpha, self.settings.rayleigh_beta);
+        let qn = self.state.q.clone();
+        let q_hat: Vec<f64> = qn
+            .iter()
+            .zip(&self.state.v)
+            .map(|(q, v)| q + h * v)
+            .collect();
+        let rho = self.params.linear_density;
+        let inertia_scale = 1.0 / (h * h) + alpha / h;
+        for (s, d) in self.segment_dofs.iter().enumerate() {
+            let local = gather(&qn, d);
+            if let Term::Inertia(form, _) = &mut self.potential.terms[self.n_static + s] {
+                form.center = (gather(&q_hat, d) + alpha * h * local) / (1.0 + alpha * h);
+                form.matrix = inertia_scale * segment_mass_matrix(rho, &local);
+            }
+        }
+        let first_damping = self.n_static + self.segment_dofs.len();
+        let (elastic, rest) = self.potential.terms.split_at_mut(first_damping);
+        for (target, &k) in rest.iter_mut().zip(&self.damped) {
+            let updated = elastic[k].update_damping_form(&qn, beta / h, target);
+            debug_assert!(
+                updated,
+                "damping term {k} out of step with its elastic term"
+            );
+        }
+        if self.solver.is_none() {
+            self.solver = Some(NewtonSolver::new(&self.potential, &self.fixed)?);
+        }
+        let solver = self.solver.as_mut().expect("built above");
+        let mut q = qn.clone();
+        let newton = solver.minimize(&self.potential, &mut q, &self.settings.newton)?;
+        for (i, v) in self.state.v.iter_mut().enumerate() {
+            *v = if self.fixed[i] {
+                0.0
+            } else {
+                (q[i] - qn[i]) / h
+            };
+        }
+        let max_force = self.params.friction_max_force;
+        for term in &mut self.potential.terms[..self.n_static] {
+            if let Term::Friction(spring, d) = term {
+                report.slipped += usize::from(spring.update_anchor(q[d[0]], max_force));
+            }
+        }
+        self.state.q = q;
+        self.time += h;
+        report.substeps += 1;
+        report.newton_iterations += newton.iterations;
+        report.last_newton = Some(newton);
+        Ok(())
+    }
+
+    /// Kinetic energy `½ q̇ᵀ M(q) q̇` (J).
+    pub fn kinetic_energy(&self) -> f64 {
+        kinetic_energy(
+            &self.topology,
+            &self.dofs,
+            self.params.linear_density,
+            &self.state,
+        )
+    }
+
+    /// Potential energy (J): elastic terms and gravity at the current state.
+    pub fn potential_energy(&self) -> f64 {
+        self.potential.terms[..self.n_static]
+            .iter()
+            .map(|t| t.energy(&self.state.q))
+            .sum()
+    }
+
+    /// Energy (J) of each kind of elastic and gravity term at the current state (the per-term
+    /// energy shares of the rib-stretch figure).
+    pub fn energy_by_kind(&self) -> Vec<(TermKind, f64)> {
+        crate::forces::energy_by_kind(self.static_terms(), &self.state.q)
+    }
+
+    /// The elastic and gravity terms (without the per-step inertia and damping).
+    pub fn static_terms(&self) -> &[Term] {
+        &self.potential.terms[..self.n_static]
+    }
+
+    /// The current state.
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// Replaces the state (same DOF count required), e.g. to start with a velocity.
+    pub fn set_state(&mut self, state: State) -> Result<(), SimError> {
+        if state.q.len() != self.dofs.n_dofs() || state.v.len() != self.dofs.n_dofs() {
+            return Err(SimError::Invalid(
+                "state has the wrong number of DOFs".into(),
+            ));
+        }
+        self.state = state;
+        Ok(())
+    }
+
+    /// The topology.
+    pub fn topology(&self) -> &Topology {
+        &self.topology
+    }
+
+    /// The DOF layout.
+    pub fn dofs(&self) -> &DofMap {
+        &self.dofs
+    }
+
+    /// Which DOFs are held fixed.
+    pub fn fixed(&self) -> &[bool] {
+        &self.fixed
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The step settings.
+    pub fn settings(&self) -> &StepSettings {
+        &self.settings
+    }
+}

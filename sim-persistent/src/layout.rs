@@ -1,0 +1,150 @@
+//! Initial positions and sliding coordinates from a topology (seed 000 §4.1, first paragraph:
+//! "lay the loops and stitches following an input stitch map").
+//!
+//! **Knits.** Loop `(r, c)` spans `x ∈ [c w, (c + 1) w]` and `y ∈ [r h, (r + 1) h]` (`w` loop
+//! width, `h` row height). The stitch contacts of row boundary `b` sit at height `y = b h`,
+//! the left one at `x = (c + ¼) w`, the right one at `x = (c + ¾) w`. A contact's two nodes are
+//! `contact_length` apart along a 45° axis: up-right for left contacts, up-left for right
+//! contacts, so that each yarn turns by about 45° at each node (a rectangular loop would turn
+//! by 90°, right at the onset of bending jamming, §4.1). The nodes are offset out of the plane
+//! by `∓σ δ` (`lo`, `hi`) with `σ = +1` for a knit and `−1` for a purl (front view) and
+//! `δ = out_of_plane`: the legs of a knit come from the back through the loop below to the
+//! front. Bind-off nodes (top boundary) lie in the plane.
+//!
+//! **Weaves.** Crossing `(i, j)` sits at `(i w, j w, 0)`: `w` is the yarn spacing.
+//!
+//! **Sliding coordinates** start as the arc length of the polyline from the yarn's first node
+//! (m), so every segment starts at its rest length (zero stretch). Bending is not at rest:
+//! rest-shape bending compensation (§4.1, relaxing a characteristic rectangle) is future work.
+
+use crate::topology::{FabricKind, Side, Topology, knit_node};
+use rod::geometry::V3;
+
+/// Geometric parameters of the initial layout (SI units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LayoutParams {
+    /// Loop width `w` (m): course spacing of knits, yarn spacing of weaves. Seed 000 Table 1:
+    /// 1–6 mm.
+    pub loop_width: f64,
+    /// Row height `h` (m), wale spacing of knits. Default: equal to the loop width.
+    pub row_height: f64,
+    /// Distance between the two nodes of a stitch contact (m). Not given in the paper;
+    /// default: the yarn radius.
+    pub contact_length: f64,
+    /// Out-of-plane offset `δ` of stitch-contact nodes (m). Not given in the paper; default:
+    /// a quarter of the yarn radius, which keeps every turn of the default layout below 70°
+    /// (with `δ = R` a stockinette leg turns by ≈ 104°, past the jamming onset).
+    pub out_of_plane: f64,
+}
+
+impl LayoutParams {
+    /// Defaults for loop width `w` and yarn radius `r` (m): `h = w`, contact length `r`,
+    /// offset `r/4`.
+    pub fn new(loop_width: f64, yarn_radius: f64) -> Self {
+        Self {
+            loop_width,
+            row_height: loop_width,
+            contact_length: yarn_radius,
+            out_of_plane: 0.25 * yarn_radius,
+        }
+    }
+
+    /// Checks that all lengths are finite and positive and that the contact axis fits in a
+    /// loop (`contact_length < min(w, h)/√2`, else heads, sinkers or legs get zero length).
+    pub fn validate(&self) -> Result<(), LayoutError> {
+        let all = [
+            self.loop_width,
+            self.row_height,
+            self.contact_length,
+            self.out_of_plane,
+        ];
+        if !all.iter().all(|v| v.is_finite() && *v > 0.0) {
+            return Err(LayoutError::InvalidParams(format!(
+                "lengths must be finite and > 0: {self:?}"
+            )));
+        }
+        if self.contact_length * std::f64::consts::SQRT_2 >= self.loop_width.min(self.row_height) {
+            return Err(LayoutError::InvalidParams(format!(
+                "contact length {} m does not fit in a {} × {} m loop",
+                self.contact_length, self.loop_width, self.row_height
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// An invalid layout request.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum LayoutError {
+    /// A length is not finite and positive, or the contact does not fit in a loop.
+    #[error("invalid layout parameters: {0}")]
+    InvalidParams(String),
+}
+
+/// Initial node positions and sliding coordinates.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layout {
+    /// Node positions (m), indexed like [`Topology::nodes`].
+    pub positions: Vec<V3>,
+    /// Sliding coordinate (m) of every node slot: `sliding[node][slot]`.
+    pub sliding: Vec<Vec<f64>>,
+}
+
+impl Layout {
+    /// Lays out `topology` (see the module documentation).
+    pub fn new(topology: &Topology, params: &LayoutParams) -> Result<Self, LayoutError> {
+        params.validate()?;
+        let positions = match &topology.kind {
+            FabricKind::Knit(chart) => {
+                let (w, h) = (chart.width(), chart.height());
+                let mut pos = vec![V3::zeros(); topology.nodes.len()];
+                let a = 0.5 * params.contact_length * std::f64::consts::FRAC_1_SQRT_2;
+                for b in 0..=h {
+                    for c in 0..w {
+                        let sigma = if b < h {
+                            chart.stitch(b, c).sign()
+                        } else {
+                            0.0
+                        };
+                        let dz = sigma * params.out_of_plane;
+                        let y = b as f64 * params.row_height;
+                        for (side, xc, dir) in [
+                            (Side::Left, (c as f64 + 0.25) * params.loop_width, 1.0),
+                            (Side::Right, (c as f64 + 0.75) * params.loop_width, -1.0),
+                        ] {
+                            pos[knit_node(w, b, c, side, false)] =
+                                V3::new(xc - dir * a, y - a, -dz);
+                            pos[knit_node(w, b, c, side, true)] = V3::new(xc + dir * a, y + a, dz);
+                        }
+                    }
+                }
+                pos
+            }
+            FabricKind::Weave { warps, .. } => (0..topology.nodes.len())
+                .map(|n| {
+                    let (i, j) = (n % warps, n / warps);
+                    V3::new(
+                        i as f64 * params.loop_width,
+                        j as f64 * params.loop_width,
+                        0.0,
+                    )
+                })
+                .collect(),
+        };
+        let mut sliding: Vec<Vec<f64>> = topology
+            .nodes
+            .iter()
+            .map(|n| vec![0.0; n.passes.len()])
+            .collect();
+        for yarn in &topology.yarns {
+            let mut s = 0.0;
+            for (i, p) in yarn.passes.iter().enumerate() {
+                if i > 0 {
+                    s += (positions[p.node] - positions[yarn.passes[i - 1].node]).norm();
+                }
+                sliding[p.node][p.slot] = s;
+            }
+        }
+        Ok(Self { positions, sliding })
+    }
+}

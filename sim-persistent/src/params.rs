@@ -1,0 +1,108 @@
+//! Yarn material parameters (seed 000 §4, Table 1).
+
+use rod::bending::Jamming;
+use rod::geometry::V3;
+
+/// Mechanical parameters of a yarn (SI units). Quantities the paper does not give are marked
+/// as such, with the reason for the default.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct YarnParams {
+    /// Yarn radius R (m). Table 1: 0.25–1.5 mm.
+    pub radius: f64,
+    /// Linear density ρ (kg/m). Not in the paper; default `1000 kg/m³ · π R²`.
+    pub linear_density: f64,
+    /// Elastic modulus Y (Pa); stretch stiffness `k_s = Y π R²` (N). Table 1: 1e7 Pa.
+    pub young_modulus: f64,
+    /// Bending modulus B of Table 1 (1e-3, 3e-4); seed 000 §4.1 sets `k_b = B π R²`. The
+    /// paper labels B in Pa, which would make `k_b` a force; we read it so that `k_b` is in
+    /// N·m², as Eq. 1 (`V = k_b θ²/Δu`, in J) requires.
+    pub bending_modulus: f64,
+    /// Bending jamming (§4.1): ×1000 stiffening past θ = π/2.
+    pub jamming: Jamming,
+    /// Stitch-contact length stiffness `k_l` of Eq. 6 (N). Not in the paper; default `k_s`,
+    /// so the contact length is as stiff as the yarn itself.
+    pub stitch_length_stiffness: f64,
+    /// Stick stiffness `k_f` of the friction springs of Eq. 5 (N/m). Not in the paper;
+    /// default `k_s / R`, the axial stiffness of a yarn piece one radius long.
+    pub friction_stiffness: f64,
+    /// Slip force `F_max` of Eq. 5 (N). The paper uses `μ λ` (μ = 0.3, Table 1) with the
+    /// compression λ of Eqs. 3–4, which is not implemented yet; this constant stands in for
+    /// it. Default `1e-3 N`, the order of the bending forces in a relaxed swatch of the
+    /// Table 1 yarns.
+    pub friction_max_force: f64,
+    /// Gravity acceleration (m/s²). Default `(0, −9.81, 0)`: the fabric's y axis (wale
+    /// direction of knits) points up.
+    pub gravity: V3,
+}
+
+impl YarnParams {
+    /// Defaults for yarn radius `r` (m), modulus `Y` (Pa) and bending modulus `B` (Table 1).
+    pub fn new(radius: f64, young_modulus: f64, bending_modulus: f64) -> Self {
+        let area = std::f64::consts::PI * radius * radius;
+        Self {
+            radius,
+            linear_density: 1000.0 * area,
+            young_modulus,
+            bending_modulus,
+            jamming: Jamming::default(),
+            stitch_length_stiffness: young_modulus * area,
+            friction_stiffness: young_modulus * area / radius,
+            friction_max_force: 1e-3,
+            gravity: V3::new(0.0, -9.81, 0.0),
+        }
+    }
+
+    /// Table 1, sweater (Fig. 1): R = 0.75 mm, Y = 1e7 Pa, B = 1e-3 (loop width 3 mm).
+    pub fn sweater() -> Self {
+        Self::new(0.75e-3, 1e7, 1e-3)
+    }
+
+    /// Table 1, sleeveless shirt (Fig. 10): R = 0.25 mm, Y = 1e7 Pa, B = 3e-4 (loop width 1 mm).
+    pub fn shirt() -> Self {
+        Self::new(0.25e-3, 1e7, 3e-4)
+    }
+
+    /// Table 1, sleeveless pullover (Fig. 7): R = 1.5 mm, Y = 1e7 Pa, B = 3e-4 (loop width 6 mm).
+    pub fn pullover() -> Self {
+        Self::new(1.5e-3, 1e7, 3e-4)
+    }
+
+    /// Stretch stiffness `k_s = Y π R²` (N).
+    pub fn stretch_stiffness(&self) -> f64 {
+        self.young_modulus * std::f64::consts::PI * self.radius * self.radius
+    }
+
+    /// Bending stiffness `k_b = B π R²` (N·m², seed 000 §4.1).
+    pub fn bending_stiffness(&self) -> f64 {
+        self.bending_modulus * std::f64::consts::PI * self.radius * self.radius
+    }
+
+    /// Checks that every parameter is finite and in range.
+    pub fn validate(&self) -> Result<(), String> {
+        let pos = [
+            ("radius", self.radius),
+            ("linear_density", self.linear_density),
+            ("young_modulus", self.young_modulus),
+        ];
+        for (name, v) in pos {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{name} must be finite and > 0, got {v}"));
+            }
+        }
+        let nonneg = [
+            ("bending_modulus", self.bending_modulus),
+            ("stitch_length_stiffness", self.stitch_length_stiffness),
+            ("friction_stiffness", self.friction_stiffness),
+            ("friction_max_force", self.friction_max_force),
+        ];
+        for (name, v) in nonneg {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("{name} must be finite and ≥ 0, got {v}"));
+            }
+        }
+        if !self.gravity.iter().all(|g| g.is_finite()) {
+            return Err("gravity must be finite".into());
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,281 @@
+//! Asserting finite-difference checks (through `rod::fd`) of every force term of the
+//! persistent-contact model, on seeded random configurations (proptest, fixed seed), and of
+//! the assembled potential of a real swatch (which also checks the DOF bookkeeping).
+
+use nalgebra::{SVector, Vector3};
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngSeed};
+use rod::fd::{FdOptions, assert_stencil_derivatives, check_gradient, check_hessian};
+use sim_persistent::chart::Chart;
+use sim_persistent::forces::friction::AnchoredSpring;
+use sim_persistent::forces::gravity::Gravity;
+use sim_persistent::forces::quadratic::Quadratic;
+use sim_persistent::forces::stitch_length::StitchLength;
+use sim_persistent::forces::wrapping::{StitchWrap, wrap_pairs};
+use sim_persistent::forces::{ForceSet, Potential, build_terms};
+use sim_persistent::forces::{bending::bending_stencil, stretch::stretch_stencil};
+use sim_persistent::layout::{Layout, LayoutParams};
+use sim_persistent::params::YarnParams;
+use sim_persistent::state::{DofMap, State};
+use sim_persistent::topology::{Side, Topology};
+use solver::{Assembler, Problem};
+
+/// Fixed seed, no failure files written into the source tree.
+fn config(cases: u32) -> Config {
+    Config {
+        cases,
+        rng_seed: RngSeed::Fixed(0x000c_1210),
+        failure_persistence: None,
+        ..Config::default()
+    }
+}
+
+/// Length scale: yarn-sized (mm).
+const L: f64 = 1e-3;
+
+fn v3(range: f64) -> impl Strategy<Value = Vector3<f64>> {
+    (-range..range, -range..range, -range..range).prop_map(|(x, y, z)| Vector3::new(x, y, z))
+}
+
+fn pack<const N: usize>(parts: &[&[f64]]) -> SVector<f64, N> {
+    let flat: Vec<f64> = parts.iter().flat_map(|p| p.iter().copied()).collect();
+    SVector::from_column_slice(&flat)
+}
+
+proptest! {
+    #![proptest_config(config(128))]
+
+    #[test]
+    fn gravity_on_a_sliding_segment(x0 in v3(L), x1 in v3(L), u0 in -L..L, du in 0.2*L..3.0*L, g in v3(10.0)) {
+        let s = Gravity { density: 1.7e-3, g };
+        let q = pack::<8>(&[x0.as_slice(), &[u0], x1.as_slice(), &[u0 + du]]);
+        assert_stencil_derivatives(&s, &q, L);
+    }
+
+    #[test]
+    fn stretch_with_table1_yarn(x0 in v3(L), dir in v3(1.0), len in 0.3*L..2.0*L, strain in -0.3..0.3f64, u0 in -L..L) {
+        prop_assume!(dir.norm() > 0.1);
+        let x1 = x0 + dir.normalize() * len;
+        let q = pack::<8>(&[x0.as_slice(), &[u0], x1.as_slice(), &[u0 + len / (1.0 + strain)]]);
+        assert_stencil_derivatives(&stretch_stencil(&YarnParams::sweater()), &q, L);
+    }
+
+    #[test]
+    fn bending_with_jamming_past_half_pi(x1 in v3(L), a in v3(1.0), b in v3(1.0), la in 0.3*L..2.0*L,
+                                         lb in 0.3*L..2.0*L, u0 in -L..L, du in 0.8..1.5f64) {
+        prop_assume!(a.norm() > 0.1 && b.norm() > 0.1);
+        let (x0, x2) = (x1 - a.normalize() * la, x1 + b.normalize() * lb);
+        let theta = rod::geometry::turning_angle(&(x1 - x0), &(x2 - x1));
+        prop_assume!(theta < 3.0);
+        // Stay off the exact ends of the smooth jamming transition, where φ''' jumps.
+        let j = YarnParams::sweater().jamming;
+        prop_assume!((theta - j.angle).abs() > 1e-4 && (theta - j.angle - j.width).abs() > 1e-4);
+        let q = pack::<12>(&[x0.as_slice(), &[u0], x1.as_slice(), &[u0 + la], x2.as_slice(), &[u0 + du * (la + lb)]]);
+        assert_stencil_derivatives(&bending_stencil(&YarnParams::sweater()), &q, L);
+    }
+
+    #[test]
+    fn stitch_contact_length_eq6(u0 in -L..L, l in 0.2*L..3.0*L, rest in 0.2*L..3.0*L, k in 0.1..50.0f64) {
+        let s = StitchLength { stiffness: k, rest_length: rest };
+        assert_stencil_derivatives(&s, &pack::<2>(&[&[u0, u0 + l]]), L);
+    }
+
+    #[test]
+    fn friction_anchored_spring_eq5(u in -L..L, anchor in -L..L, k in 1.0..1e5f64) {
+        let s = AnchoredSpring { stiffness: k, anchor };
+        assert_stencil_derivatives(&s, &pack::<1>(&[&[u]]), L);
+    }
+
+    #[test]
+    fn stitch_wrapping_eq2(x0 in v3(L), axis in v3(1.0), len in 0.3*L..1.5*L, d4 in v3(1.5 * L), d3 in v3(1.5 * L),
+                           rest in -2.0..2.0f64) {
+        prop_assume!(axis.norm() > 0.1);
+        let x1 = x0 + axis.normalize() * len;
+        let (x4, x3) = (x0 + d4, x1 + d3);
+        let t = axis.normalize();
+        // Wings well away from the hinge line, and off the branch cut ψ = ±π.
+        prop_assume!((d4 - t * t.dot(&d4)).norm() > 0.3 * L && (d3 - t * t.dot(&d3)).norm() > 0.3 * L);
+        let q = pack::<12>(&[x0.as_slice(), x1.as_slice(), x4.as_slice(), x3.as_slice()]);
+        let arr: [f64; 12] = std::array::from_fn(|k| q[k]);
+        prop_assume!(StitchWrap::angle(&arr).abs() < 3.0);
+        let s = StitchWrap { stiffness: 1e-2, rest_length: len, rest_angle: rest };
+        assert_stencil_derivatives(&s, &q, L);
+    }
+
+    #[test]
+    fn inertia_quadratic_form(x0 in v3(L), x1 in v3(L), u0 in -L..L, du in 0.2*L..3.0*L, shift in v3(L)) {
+        let q = pack::<8>(&[x0.as_slice(), &[u0], x1.as_slice(), &[u0 + du]]);
+        let m = sim_persistent::state::segment_mass_matrix(1.7e-3, &q) * 1e6;
+        let center = q + pack::<8>(&[shift.as_slice(), &[0.3 * L], (-shift).as_slice(), &[-0.1 * L]]);
+        let form = Quadratic { matrix: m, center };
+        let moved = q + pack::<8>(&[&[0.2 * L; 8]]);
+        assert_stencil_derivatives(&form, &moved, L);
+    }
+}
+
+/// The signed wrapping angle has the magnitude of Eq. 13, `arccos(n_a · n_b)`, and the
+/// expected values for a hinge along +z with `q₄` beside `q₀` along +x.
+#[test]
+fn wrapping_angle_matches_eq13() {
+    let angle = |d3: [f64; 3]| {
+        let q = [
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            1.0,
+            1.0,
+            0.0,
+            0.0,
+            d3[0],
+            d3[1],
+            1.0 + d3[2],
+        ];
+        StitchWrap::angle(&q)
+    };
+    // Opposite sides of the hinge: flat, unwrapped.
+    assert!(angle([-1.0, 0.0, 0.0]).abs() < 1e-15);
+    // A quarter turn either way: ∓π/2.
+    assert!((angle([0.0, 1.0, 0.3]) + std::f64::consts::FRAC_PI_2).abs() < 1e-14);
+    assert!((angle([0.0, -1.0, -0.2]) - std::f64::consts::FRAC_PI_2).abs() < 1e-14);
+    // Magnitude = Eq. 13 on a general configuration.
+    let x: [f64; 12] = [
+        0.1, -0.2, 0.05, 0.3, 0.4, 0.9, -0.5, 0.2, 0.1, 0.7, -0.1, 1.2,
+    ];
+    let v = |k: usize| Vector3::new(x[3 * k], x[3 * k + 1], x[3 * k + 2]);
+    let (x0, x1, x4, x3) = (v(0), v(1), v(2), v(3));
+    let na = (x4 - x1).cross(&(x0 - x1)).normalize();
+    let nb = (x0 - x1).cross(&(x3 - x1)).normalize();
+    assert!((StitchWrap::angle(&x).abs() - na.dot(&nb).acos()).abs() < 1e-14);
+}
+
+/// The wrapping pairs of the stitch contacts of a knit: the contact's nodes and a neighbour
+/// of each on the right yarn; none at the two side edges, where the upper yarn ends.
+#[test]
+fn wrapping_pairs_of_a_knit() {
+    let topo = Topology::knit(&Chart::rib(4, 3, 1, 1).unwrap());
+    let mut with_pairs = 0;
+    for sc in &topo.stitch_contacts {
+        let at_yarn_end =
+            (sc.column == 0 && sc.side == Side::Left) || (sc.column == 3 && sc.side == Side::Right);
+        let Some(pairs) = wrap_pairs(&topo, sc) else {
+            assert!(at_yarn_end, "{sc:?}");
+            continue;
+        };
+        assert!(!at_yarn_end);
+        with_pairs += 1;
+        let [q0, q1] = sc.nodes;
+        let next = |y: usize, n: usize, o: isize| {
+            let i = topo.pass_index(n, y).unwrap();
+            topo.yarns[y].passes[i.checked_add_signed(o).unwrap()].node
+        };
+        assert_eq!(
+            pairs[0],
+            [q0, q1, next(sc.yarns[0], q0, -1), next(sc.yarns[1], q1, 1)]
+        );
+        assert_eq!(
+            pairs[1],
+            [q1, q0, next(sc.yarns[0], q1, 1), next(sc.yarns[1], q0, -1)]
+        );
+        // Four distinct nodes per pair.
+        for p in pairs {
+            let mut s = p.to_vec();
+            s.sort_unstable();
+            s.dedup();
+            assert_eq!(s.len(), 4);
+        }
+    }
+    assert_eq!(with_pairs, topo.stitch_contacts.len() - 2 * 2);
+}
+
+#[test]
+fn friction_slip_moves_the_anchor_to_the_maximal_stick_position() {
+    let mut s = AnchoredSpring {
+        stiffness: 1e3,
+        anchor: 0.0,
+    };
+    // Stick: force 0.5 mN ≤ 1 mN.
+    assert!(!s.update_anchor(0.5e-6, 1e-3));
+    assert_eq!(s.anchor, 0.0);
+    // Slip: force 3 mN > 1 mN; afterwards the spring force is exactly the bound.
+    assert!(s.update_anchor(3e-6, 1e-3));
+    assert!((s.stiffness * (3e-6 - s.anchor) - 1e-3).abs() < 1e-15);
+    assert!(s.update_anchor(-5e-6, 1e-3));
+    assert!((s.stiffness * (-5e-6 - s.anchor) + 1e-3).abs() < 1e-15);
+}
+
+/// The assembled potential of a 3 × 3 seed-stitch swatch (every static term kind), at a
+/// perturbed layout: gradient vs central differences of the energy on every DOF, Hessian vs
+/// central differences of the gradient on every column.
+#[test]
+fn assembled_potential_of_a_swatch() {
+    let chart = Chart::seed(3, 3).unwrap();
+    let topo = Topology::knit(&chart);
+    let params = YarnParams::sweater();
+    let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).unwrap();
+    let dofs = DofMap::new(&topo);
+    let rest = State::from_layout(&topo, &dofs, &layout);
+    let terms = build_terms(&topo, &dofs, &params, &ForceSet::default(), &rest.q);
+    let pot = Potential::new(dofs.n_dofs(), terms).unwrap();
+    let kinds: Vec<_> = pot
+        .energy_by_kind(&rest.q)
+        .iter()
+        .map(|(k, _)| *k)
+        .collect();
+    assert_eq!(
+        kinds.len(),
+        5,
+        "gravity, stretch, bending, stitch length, friction: {kinds:?}"
+    );
+    // Deterministic perturbation: 0.1 mm in x, 0.05 mm in u.
+    let mut q = rest.q.clone();
+    for n in 0..topo.nodes.len() {
+        let i = dofs.x(n);
+        for k in 0..3 {
+            q[i + k] += 1e-4 * ((7 * n + 3 * k) as f64 * 0.37).sin();
+        }
+        for s in 0..topo.nodes[n].passes.len() {
+            q[dofs.u(n, s)] += 5e-5 * ((5 * n + s) as f64 * 0.71).cos();
+        }
+    }
+    let mut asm = Assembler::new(&pot).unwrap();
+    let assembled = asm.assemble(&pot, &q, false).unwrap();
+    let energy = assembled.energy;
+    let gradient = assembled.gradient.to_vec();
+    let n = pot.n_dofs();
+    // Dense full Hessian from the stored lower triangle.
+    let h = assembled.hessian;
+    let mut dense = vec![0.0; n * n];
+    for j in 0..n {
+        let col = h.col_ptr()[j]..h.col_ptr()[j + 1];
+        for (idx, &i) in h.row_idx()[col.clone()].iter().enumerate() {
+            let v = h.val()[col.start + idx];
+            dense[i + n * j] = v;
+            dense[j + n * i] = v;
+        }
+    }
+    assert!((energy - pot.energy(&q)).abs() <= 1e-12 * energy.abs());
+    let g_typ = gradient.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let opts = FdOptions {
+        step: 1e-8,
+        rtol: 1e-6,
+        atol: 1e-9 * g_typ,
+    };
+    let eval_energy = |x: &[f64]| pot.energy(x);
+    let ge = check_gradient(eval_energy, &gradient, &q, &opts).unwrap_or_else(|e| panic!("{e}"));
+    let mut asm2 = Assembler::new(&pot).unwrap();
+    let grad_fn = |x: &[f64]| asm2.gradient(&pot, x).unwrap().1.to_vec();
+    let h_typ = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let hopts = FdOptions {
+        step: 1e-8,
+        rtol: 1e-5,
+        atol: 1e-9 * h_typ,
+    };
+    let grad_cell = std::cell::RefCell::new(grad_fn);
+    let he = check_hessian(|x| (grad_cell.borrow_mut())(x), &dense, &q, &hopts)
+        .unwrap_or_else(|e| panic!("{e}"));
+    eprintln!(
+        "assembled swatch: {n} DOFs, gradient rel. error {ge:.2e}, Hessian rel. error {he:.2e}"
+    );
+}
