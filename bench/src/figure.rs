@@ -124,6 +124,7 @@ pub fn all_figures() -> Vec<FigureSpec> {
         deform_compression_clamping::spec(),
         deform_sampling_density::spec(),
         deform_naive_vs_mechanics::spec(),
+        deform_bending_models::spec(),
         deform_time_vs_error::spec(),
         periodic_curves::spec(),
         periodic_tiles::spec(),

@@ -7,7 +7,7 @@
 //! - [`plot`]: line charts written as PNG + SVG.
 //! - [`table`]: the numeric [`Table`] with CSV read/write.
 //! - [`report`]: the runner behind `cargo xtask reproduce-figures`.
-//! - [`reference`]: comparison against guarded reference curves.
+//! - [`reference`](mod@reference): comparison against guarded reference curves.
 //! - [`studies`]: the computations behind the figures (callable from tests).
 //!
 //! Writing a figure:

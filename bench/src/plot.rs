@@ -273,6 +273,54 @@ fn save_panels(
     Ok(())
 }
 
+/// Height of the caption band above each image of [`save_images`] (pixels).
+const CAPTION_HEIGHT: u32 = 36;
+
+/// Writes rendered images (e.g. `deform_runtime::render` tube images) side by side, each with
+/// a caption above it, as `<dir>/<stem>.png` (raster only: no SVG). The file is written by the
+/// plotters bitmap backend, so it is deflate-compressed, unlike the renderer's own stored-block
+/// PNG encoder.
+pub fn save_images(
+    panels: &[(&str, &deform_runtime::render::Image)],
+    dir: &Path,
+    stem: &str,
+) -> anyhow::Result<()> {
+    if panels.is_empty() {
+        bail!("{stem}: no images to save");
+    }
+    ensure_font();
+    let width: u32 = panels.iter().map(|(_, image)| image.width).sum();
+    let height = CAPTION_HEIGHT
+        + panels
+            .iter()
+            .map(|(_, image)| image.height)
+            .max()
+            .unwrap_or(0);
+    let png = dir.join(format!("{stem}.png"));
+    {
+        let root = BitMapBackend::new(&png, (width, height)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let caption = (FONT, 22).into_font().color(&BLACK);
+        let mut x0 = 0i32;
+        for (title, image) in panels {
+            root.draw_text(title, &caption, (x0 + 12, 8))?;
+            for y in 0..image.height {
+                for x in 0..image.width {
+                    let [r, g, b] = image.pixel(x, y);
+                    if [r, g, b] != [255, 255, 255] {
+                        let at = (x0 + x as i32, (CAPTION_HEIGHT + y) as i32);
+                        root.draw_pixel(at, &RGBColor(r, g, b))?;
+                    }
+                }
+            }
+            x0 += image.width as i32;
+        }
+        root.present()
+            .with_context(|| format!("writing {}", png.display()))?;
+    }
+    Ok(())
+}
+
 fn draw_panels<DB>(root: &DrawingArea<DB, Shift>, charts: &[&LineChart]) -> anyhow::Result<()>
 where
     DB: DrawingBackend,
@@ -555,6 +603,27 @@ mod tests {
         assert_eq!(tick_label(1200.0), "1200");
         assert_eq!(tick_label(1e-6), "1e-6");
         assert_eq!(tick_label(25000.0 * 10.0), "2.5e5");
+    }
+
+    #[test]
+    fn images_are_saved_side_by_side_with_captions() {
+        use deform_runtime::render::Image;
+        let dir = std::env::temp_dir().join(format!("bench-save-images-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let image = |width: u32, height: u32, v: u8| Image {
+            width,
+            height,
+            rgb: vec![v; 3 * (width * height) as usize],
+        };
+        let (a, b) = (image(30, 20, 10), image(50, 40, 200));
+        save_images(&[("a", &a), ("b", &b)], &dir, "pair").unwrap();
+        let png = std::fs::read(dir.join("pair.png")).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!(&png[12..16], b"IHDR");
+        let size = |o: usize| u32::from_be_bytes(png[o..o + 4].try_into().unwrap());
+        assert_eq!((size(16), size(20)), (80, 40 + CAPTION_HEIGHT));
+        assert!(save_images(&[], &dir, "none").is_err());
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     /// Draws every style on linear and log axes. The files are left in

@@ -169,10 +169,28 @@ fn main() {
                 best = best.min(s.mesh_seconds + s.vertex_seconds);
             }
             println!(
-                "GPU ({}) full frame incl. upload + read-back: {:.2} ms = {:.1} M vertices/s",
+                "GPU ({}, {} chunk(s)) full frame incl. upload + read-back: {:.2} ms = {:.1} M vertices/s",
                 gpu.adapter(),
+                gpu.chunk_lengths().len(),
                 best * 1e3,
                 n as f64 / best / 1e6
+            );
+            // The same frame on the CPU: largest coordinate difference relative to the
+            // largest coordinate magnitude (the tests' measure).
+            d.frame(&moved).expect("frame");
+            let (a, b) = (d.output(), gpu.output());
+            let scale =
+                a.x.iter()
+                    .chain(&a.y)
+                    .chain(&a.z)
+                    .fold(0.0f32, |m, v| m.max(v.abs()));
+            let worst = [(&a.x, &b.x), (&a.y, &b.y), (&a.z, &b.z)]
+                .iter()
+                .flat_map(|(p, q)| p.iter().zip(q.iter()).map(|(p, q)| (p - q).abs()))
+                .fold(0.0f32, f32::max);
+            println!(
+                "GPU vs CPU: max relative difference {:.2e} over {n} vertices",
+                worst / scale
             );
         }
         Err(e) => println!("GPU: {e}"),

@@ -514,6 +514,96 @@ impl<T: Real> Deformer<T> {
         })
     }
 
+    /// Deforms the pattern for one frame with the explicit bending model of Appendix C
+    /// (Eq. 19, [`crate::bending`]) instead of linearized bending: same mesh stage, options
+    /// (`linearized_bending` is ignored) and non-finite handling as [`Deformer::frame`], but
+    /// no static-frame skipping (the next [`Deformer::frame`] recomputes too). `bending` must
+    /// belong to this deformer's pattern (same vertex count; checked).
+    pub fn frame_explicit(
+        &mut self,
+        positions: &[[f64; 3]],
+        bending: &crate::bending::BendingDatabase<T>,
+    ) -> Result<FrameStats> {
+        let t0 = Instant::now();
+        let mesh_counters = self.update_mesh(positions)?;
+        self.has_previous = false;
+        let t1 = Instant::now();
+        let vertices = self.explicit_stage(bending)?;
+        let t2 = Instant::now();
+        Ok(FrameStats {
+            static_frame: false,
+            mesh: mesh_counters,
+            vertices,
+            mesh_seconds: (t1 - t0).as_secs_f64(),
+            vertex_seconds: (t2 - t1).as_secs_f64(),
+        })
+    }
+
+    fn explicit_stage(
+        &mut self,
+        bending: &crate::bending::BendingDatabase<T>,
+    ) -> Result<VertexCounters> {
+        if bending.n_vertices() != self.db.n_vertices() {
+            return Err(DeformError::VertexCountMismatch {
+                database: bending.n_vertices(),
+                pattern: self.db.n_vertices(),
+            });
+        }
+        let input = KernelInputs {
+            faces: &self.geometry.face_poly,
+            skip: &self.geometry.face_skip,
+            db: &self.db,
+            rest_dq: &self.rest_dq,
+            twists: &self.twists,
+            options: &self.options,
+            eigen_floor: self.eigen_floor(),
+        };
+        let e = &self.embedding;
+        let out = &mut self.output;
+        Ok(out
+            .x
+            .par_chunks_mut(CHUNK)
+            .zip(out.y.par_chunks_mut(CHUNK))
+            .zip(out.z.par_chunks_mut(CHUNK))
+            .zip(out.twist.par_chunks_mut(CHUNK))
+            .enumerate()
+            .map(|(chunk, (((xs, ys), zs), ts))| {
+                let start = chunk * CHUNK;
+                let mut counters = VertexCounters::default();
+                for j in 0..xs.len() {
+                    let k = start + j;
+                    let (f, du, dv, h, v) = (
+                        e.triangle[k],
+                        e.du[k],
+                        e.dv[k],
+                        e.height[k],
+                        e.tile_vertex[k],
+                    );
+                    let dq = crate::bending::explicit_displacement(
+                        &input,
+                        bending,
+                        f,
+                        du,
+                        dv,
+                        v,
+                        &mut counters,
+                    );
+                    let (x, t) = vertex_map(&input, f, du, dv, h, v, dq);
+                    if x.iter().all(|c| c.is_finite()) && t.is_finite() {
+                        xs[j] = x[0];
+                        ys[j] = x[1];
+                        zs[j] = x[2];
+                        ts[j] = t;
+                    } else {
+                        counters.nonfinite_output += 1;
+                    }
+                }
+                counters.processed = xs.len();
+                counters
+            })
+            .reduce(VertexCounters::default, |a, b| a + b))
+    }
+
     fn vertex_stage(&mut self) -> VertexCounters {
         let input = KernelInputs {
             faces: &self.geometry.face_poly,

@@ -9,6 +9,14 @@
 //! kernel dispatched, and the output read back. The read-back keeps a vertex's previous
 //! output if the GPU produced a non-finite value, as the CPU back end does.
 //!
+//! The per-yarn-vertex arrays (inputs, heights, output, read-back) are split into chunks that
+//! each fit the device's `max_storage_buffer_binding_size` and `max_buffer_size`, with one
+//! dispatch per chunk whose workgroup grid respects `max_compute_workgroups_per_dimension`
+//! ([`Chunking`]); the database, pattern tables and face buffer are shared by all chunks. Any
+//! vertex count that fits host and device memory therefore runs; only the database and the
+//! face buffer must each fit one binding ([`GpuError::TooLarge`]). All chunks are dispatched in
+//! one submission and read back after one wait.
+//!
 //! Byte conversions use `to_le_bytes` (no `unsafe`); the upload/read-back buffers are reused
 //! between frames.
 
@@ -25,8 +33,77 @@ pub const GPU_FACE_STRIDE: usize = 52;
 const _: () = assert!(FACE_POLY_LEN + 4 == GPU_FACE_STRIDE);
 
 const WORKGROUP: u32 = 64;
-/// Workgroups per dispatch row (the x limit of dispatches is 65535).
-const ROW_GROUPS: u32 = 32768;
+/// Bytes per yarn vertex of the largest per-vertex buffers (inputs and output: 4 × 32 bit).
+const VERTEX_BYTES: u64 = 16;
+
+/// How the per-vertex arrays are split into chunks and dispatched. The default adapts to the
+/// device limits; smaller values exercise the chunked path in tests and benchmarks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Chunking {
+    /// At most this many yarn vertices per chunk (≥ 1); further capped so that each chunk's
+    /// buffers fit `max_storage_buffer_binding_size` and `max_buffer_size` and its dispatch
+    /// fits the workgroup-count limit. Default: no cap beyond the device's.
+    pub max_vertices: usize,
+    /// At most this many workgroups (of 64 invocations) along x per dispatch (≥ 1); the rest
+    /// goes along y. Further capped by `max_compute_workgroups_per_dimension`. Default 32768.
+    pub row_groups: u32,
+}
+
+impl Default for Chunking {
+    fn default() -> Self {
+        Self {
+            max_vertices: usize::MAX,
+            row_groups: 32768,
+        }
+    }
+}
+
+/// Vertices per chunk and workgroups per dispatch row for `n` vertices under `limits`
+/// (each chunk: `row · gy` workgroups with `row, gy ≤ max_compute_workgroups_per_dimension`).
+fn plan_chunks(
+    chunking: Chunking,
+    max_binding: u64,
+    max_groups_per_dimension: u32,
+) -> Result<(usize, u32), GpuError> {
+    if chunking.max_vertices == 0 || chunking.row_groups == 0 {
+        return Err(GpuError::Chunking(format!(
+            "expected at least one vertex per chunk and one workgroup per row, found {chunking:?}"
+        )));
+    }
+    let row = chunking.row_groups.min(max_groups_per_dimension).max(1);
+    let by_buffer = max_binding / VERTEX_BYTES;
+    let by_dispatch =
+        u64::from(row) * u64::from(max_groups_per_dimension.max(1)) * u64::from(WORKGROUP);
+    // Chunk-local vertex indices are u32 in the shader.
+    let by_index = 1u64 << 31;
+    let per_chunk = by_buffer
+        .min(by_dispatch)
+        .min(by_index)
+        .min(chunking.max_vertices as u64);
+    if per_chunk == 0 {
+        return Err(GpuError::TooLarge {
+            name: "yarn vertex chunk",
+            bytes: VERTEX_BYTES,
+            limit: max_binding,
+        });
+    }
+    Ok((per_chunk as usize, row))
+}
+
+/// One chunk of yarn vertices: its own inputs, output, read-back buffer, parameters and
+/// bind group (the shader indexes chunk-locally).
+struct Chunk {
+    /// First yarn vertex of the chunk.
+    start: usize,
+    /// Yarn vertices in the chunk.
+    len: usize,
+    params: wgpu::Buffer,
+    out: wgpu::Buffer,
+    staging: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    /// Workgroups along x and y.
+    groups: (u32, u32),
+}
 
 /// Why the GPU back end is unavailable or failed.
 #[derive(Debug, thiserror::Error)]
@@ -57,6 +134,9 @@ pub enum GpuError {
     /// Mapping or polling failed.
     #[error("GPU read-back failed: {0}")]
     Readback(String),
+    /// Invalid [`Chunking`].
+    #[error("invalid GPU chunking: {0}")]
+    Chunking(String),
     /// The CPU side failed (mesh stage).
     #[error(transparent)]
     Deform(#[from] crate::error::DeformError),
@@ -108,11 +188,8 @@ pub struct GpuDeformer {
     device: wgpu::Device,
     queue: wgpu::Queue,
     pipeline: wgpu::ComputePipeline,
-    bind_group: wgpu::BindGroup,
-    params: wgpu::Buffer,
     faces: wgpu::Buffer,
-    out: wgpu::Buffer,
-    staging: wgpu::Buffer,
+    chunks: Vec<Chunk>,
     n: usize,
     n_tile: usize,
     shape: [u32; 3],
@@ -129,6 +206,7 @@ impl std::fmt::Debug for GpuDeformer {
         f.debug_struct("GpuDeformer")
             .field("adapter", &self.adapter)
             .field("vertices", &self.n)
+            .field("chunks", &self.chunks.len())
             .finish()
     }
 }
@@ -149,8 +227,15 @@ fn storage(
 }
 
 impl GpuDeformer {
-    /// Requests an adapter and device and uploads the static data of `cpu`.
+    /// Requests an adapter and device and uploads the static data of `cpu`, with the
+    /// per-vertex arrays split into chunks that fit the device limits.
     pub fn new(cpu: &Deformer<f32>) -> Result<Self, GpuError> {
+        Self::with_chunking(cpu, Chunking::default())
+    }
+
+    /// As [`GpuDeformer::new`], with explicit (smaller) chunks: results do not depend on the
+    /// chunking; tests and benchmarks use it to exercise the split.
+    pub fn with_chunking(cpu: &Deformer<f32>, chunking: Chunking) -> Result<Self, GpuError> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
         let adapter = block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
@@ -191,9 +276,13 @@ impl GpuDeformer {
             }
         };
         check("texels", (db.texels().len() * 16) as u64)?;
-        check("vertices", (n * 16) as u64)?;
-        check("output", (n * 16) as u64)?;
+        check("pattern tables", (2 * n_tile * 16) as u64)?;
         check("faces", (cpu.mesh().n_faces() * GPU_FACE_STRIDE * 4) as u64)?;
+        let (per_chunk, row) = plan_chunks(
+            chunking,
+            max_binding,
+            limits.max_compute_workgroups_per_dimension,
+        )?;
 
         let mut bytes = Vec::new();
         let upload = |label: &str, data: &[u8], extra| {
@@ -201,20 +290,6 @@ impl GpuDeformer {
             queue.write_buffer(&buffer, 0, data);
             buffer
         };
-        bytes.clear();
-        for k in 0..n {
-            for word in [
-                e.triangle[k],
-                e.tile_vertex[k],
-                e.du[k].to_bits(),
-                e.dv[k].to_bits(),
-            ] {
-                bytes.extend_from_slice(&word.to_le_bytes());
-            }
-        }
-        let vin = upload("yarn vertices", &bytes, wgpu::BufferUsages::empty());
-        f32_bytes(e.height.iter().copied(), &mut bytes);
-        let vheight = upload("yarn heights", &bytes, wgpu::BufferUsages::empty());
         f32_bytes(db.texels().iter().flatten().copied(), &mut bytes);
         let texels = upload("database", &bytes, wgpu::BufferUsages::empty());
         f32_bytes(
@@ -232,19 +307,6 @@ impl GpuDeformer {
             cpu.mesh().n_faces() * GPU_FACE_STRIDE * 4,
             wgpu::BufferUsages::empty(),
         );
-        let out = storage(&device, "output", n * 16, wgpu::BufferUsages::COPY_SRC);
-        let staging = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("read-back"),
-            size: out.size(),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let params = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("params"),
-            size: PARAMS_BYTES as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("deform.wgsl"),
             source: wgpu::ShaderSource::Wgsl(include_str!("deform.wgsl").into()),
@@ -258,33 +320,82 @@ impl GpuDeformer {
             cache: None,
         });
         let layout = pipeline.get_bind_group_layout(0);
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("deform"),
-            layout: &layout,
-            entries: &[
-                (0, &params),
-                (1, &vin),
-                (2, &vheight),
-                (3, &texels),
-                (4, &tile_data),
-                (5, &faces),
-                (6, &out),
-            ]
-            .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                binding,
-                resource: buffer.as_entire_binding(),
-            }),
-        });
+        let mut chunks = Vec::with_capacity(n.div_ceil(per_chunk));
+        let mut start = 0;
+        while start < n {
+            let len = per_chunk.min(n - start);
+            let range = start..start + len;
+            bytes.clear();
+            for k in range.clone() {
+                for word in [
+                    e.triangle[k],
+                    e.tile_vertex[k],
+                    e.du[k].to_bits(),
+                    e.dv[k].to_bits(),
+                ] {
+                    bytes.extend_from_slice(&word.to_le_bytes());
+                }
+            }
+            let vin = upload("yarn vertices", &bytes, wgpu::BufferUsages::empty());
+            f32_bytes(e.height[range].iter().copied(), &mut bytes);
+            let vheight = upload("yarn heights", &bytes, wgpu::BufferUsages::empty());
+            let out = storage(
+                &device,
+                "output",
+                len * VERTEX_BYTES as usize,
+                wgpu::BufferUsages::COPY_SRC,
+            );
+            let staging = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("read-back"),
+                size: out.size(),
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let params = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("params"),
+                size: PARAMS_BYTES as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("deform"),
+                layout: &layout,
+                entries: &[
+                    (0, &params),
+                    (1, &vin),
+                    (2, &vheight),
+                    (3, &texels),
+                    (4, &tile_data),
+                    (5, &faces),
+                    (6, &out),
+                ]
+                .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                    binding,
+                    resource: buffer.as_entire_binding(),
+                }),
+            });
+            // `plan_chunks` bounds `len` so that the y count fits the dimension limit.
+            let groups = (len as u64).div_ceil(u64::from(WORKGROUP));
+            let gx = groups.min(u64::from(row)) as u32;
+            let gy = groups.div_ceil(u64::from(row)) as u32;
+            chunks.push(Chunk {
+                start,
+                len,
+                params,
+                out,
+                staging,
+                bind_group,
+                groups: (gx, gy),
+            });
+            start += len;
+        }
         let [sx, sa, sy] = db.shape();
         Ok(Self {
             device,
             queue,
             pipeline,
-            bind_group,
-            params,
             faces,
-            out,
-            staging,
+            chunks,
             n,
             n_tile,
             shape: [sx as u32, sa as u32, sy as u32],
@@ -305,6 +416,11 @@ impl GpuDeformer {
     /// The output of the last frame.
     pub fn output(&self) -> &YarnOutput<f32> {
         &self.output
+    }
+
+    /// Yarn vertices per chunk, in order (one dispatch each).
+    pub fn chunk_lengths(&self) -> Vec<usize> {
+        self.chunks.iter().map(|c| c.len).collect()
     }
 
     /// Runs one frame: the mesh stage on the CPU (through `cpu`), the vertex stage on the GPU.
@@ -355,9 +471,7 @@ impl GpuDeformer {
         let flags = u32::from(o.displacement)
             | (u32::from(o.linearized_bending) << 1)
             | (u32::from(o.skip_identity) << 2);
-        let groups = (self.n as u32).div_ceil(WORKGROUP).max(1);
-        let (gx, gy) = (groups.min(ROW_GROUPS), groups.div_ceil(ROW_GROUPS));
-        self.write_params(flags, cpu.eigen_floor(), gx * WORKGROUP);
+        self.write_params(flags, cpu.eigen_floor());
         let mut encoder = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -369,44 +483,61 @@ impl GpuDeformer {
                 timestamp_writes: None,
             });
             pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            pass.dispatch_workgroups(gx, gy, 1);
+            for chunk in &self.chunks {
+                pass.set_bind_group(0, &chunk.bind_group, &[]);
+                pass.dispatch_workgroups(chunk.groups.0, chunk.groups.1, 1);
+            }
         }
-        encoder.copy_buffer_to_buffer(&self.out, 0, &self.staging, 0, self.out.size());
+        for chunk in &self.chunks {
+            encoder.copy_buffer_to_buffer(&chunk.out, 0, &chunk.staging, 0, chunk.out.size());
+        }
         self.queue.submit([encoder.finish()]);
-        let slice = self.staging.slice(..);
         let (sender, receiver) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            sender.send(r).ok();
-        });
+        for chunk in &self.chunks {
+            let sender = sender.clone();
+            chunk
+                .staging
+                .slice(..)
+                .map_async(wgpu::MapMode::Read, move |r| {
+                    sender.send(r).ok();
+                });
+        }
+        drop(sender);
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| GpuError::Readback(e.to_string()))?;
-        receiver
-            .recv()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let mut nonfinite = 0;
-        {
-            let view = slice
-                .get_mapped_range()
+        for _ in &self.chunks {
+            receiver
+                .recv()
+                .map_err(|e| GpuError::Readback(e.to_string()))?
                 .map_err(|e| GpuError::Readback(e.to_string()))?;
-            let out = &mut self.output;
-            for (k, chunk) in view.chunks_exact(16).take(self.n).enumerate() {
-                let v = [0, 4, 8, 12].map(|o| {
-                    f32::from_le_bytes([chunk[o], chunk[o + 1], chunk[o + 2], chunk[o + 3]])
-                });
-                if v.iter().all(|x| x.is_finite()) {
-                    out.x[k] = v[0];
-                    out.y[k] = v[1];
-                    out.z[k] = v[2];
-                    out.twist[k] = v[3];
-                } else {
-                    nonfinite += 1;
+        }
+        let mut nonfinite = 0;
+        let out = &mut self.output;
+        for chunk in &self.chunks {
+            {
+                let view = chunk
+                    .staging
+                    .slice(..)
+                    .get_mapped_range()
+                    .map_err(|e| GpuError::Readback(e.to_string()))?;
+                for (j, bytes) in view.chunks_exact(16).take(chunk.len).enumerate() {
+                    let k = chunk.start + j;
+                    let v = [0, 4, 8, 12].map(|o| {
+                        f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]])
+                    });
+                    if v.iter().all(|x| x.is_finite()) {
+                        out.x[k] = v[0];
+                        out.y[k] = v[1];
+                        out.z[k] = v[2];
+                        out.twist[k] = v[3];
+                    } else {
+                        nonfinite += 1;
+                    }
                 }
             }
+            chunk.staging.unmap();
         }
-        self.staging.unmap();
         let t2 = Instant::now();
         let mut stats = FrameStats {
             static_frame: false,
@@ -420,15 +551,12 @@ impl GpuDeformer {
         Ok(stats)
     }
 
-    fn write_params(&mut self, flags: u32, eigen_floor: f32, row: u32) {
+    /// Writes each chunk's parameters: the shared ones and the chunk's vertex count and
+    /// dispatch row length.
+    fn write_params(&mut self, flags: u32, eigen_floor: f32) {
         let mut words: Vec<u32> = Vec::with_capacity(PARAMS_BYTES / 4);
-        words.extend([
-            self.n as u32,
-            flags,
-            self.n_tile as u32,
-            eigen_floor.to_bits(),
-        ]);
-        words.extend([self.shape[0], self.shape[1], self.shape[2], row]);
+        words.extend([0, flags, self.n_tile as u32, eigen_floor.to_bits()]);
+        words.extend([self.shape[0], self.shape[1], self.shape[2], 0]);
         let uni = self.uniform.map(|u| u.unwrap_or((0.0, 0.0)));
         words.extend(uni.iter().map(|u| u.0.to_bits()).chain([0]));
         words.extend(uni.iter().map(|u| u.1.to_bits()).chain([0]));
@@ -439,11 +567,15 @@ impl GpuDeformer {
             }
             words.extend(padded);
         }
-        self.bytes.clear();
-        for w in words {
-            self.bytes.extend_from_slice(&w.to_le_bytes());
+        for chunk in &self.chunks {
+            words[0] = chunk.len as u32;
+            words[7] = chunk.groups.0 * WORKGROUP;
+            self.bytes.clear();
+            for w in &words {
+                self.bytes.extend_from_slice(&w.to_le_bytes());
+            }
+            self.queue.write_buffer(&chunk.params, 0, &self.bytes);
         }
-        self.queue.write_buffer(&self.params, 0, &self.bytes);
     }
 }
 
@@ -476,5 +608,46 @@ impl Backend {
                 ),
             ),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chunks_fit_buffer_and_dispatch_limits() {
+        // wgpu's default limits: 128 MiB bindings, 65535 workgroups per dimension.
+        let (per_chunk, row) = plan_chunks(Chunking::default(), 128 << 20, 65535).unwrap();
+        assert_eq!((per_chunk, row), (8 << 20, 32768));
+        // 4 GiB bindings: 256 M vertices; 64 GiB would exceed the u32 index range.
+        let (per_chunk, _) = plan_chunks(Chunking::default(), 4 << 30, 65535).unwrap();
+        assert_eq!(per_chunk, 1 << 28);
+        let (per_chunk, _) = plan_chunks(Chunking::default(), 64 << 30, 65535).unwrap();
+        assert_eq!(per_chunk, 1 << 31);
+        // Few workgroups per dimension: rows shrink and a chunk holds at most row² groups.
+        let (per_chunk, row) = plan_chunks(Chunking::default(), 128 << 20, 4).unwrap();
+        assert_eq!((per_chunk, row), (4 * 4 * 64, 4));
+        // Explicit caps win when smaller.
+        let tiny = Chunking {
+            max_vertices: 37,
+            row_groups: 2,
+        };
+        assert_eq!(plan_chunks(tiny, 128 << 20, 65535).unwrap(), (37, 2));
+        assert!(matches!(
+            plan_chunks(
+                Chunking {
+                    max_vertices: 0,
+                    ..tiny
+                },
+                128 << 20,
+                65535
+            ),
+            Err(GpuError::Chunking(_))
+        ));
+        assert!(matches!(
+            plan_chunks(Chunking::default(), 15, 65535),
+            Err(GpuError::TooLarge { .. })
+        ));
     }
 }

@@ -4,7 +4,9 @@
 //! deform-runtime run --pattern stockinette.pyp --database db/ --mesh 'anim/cloth_*.obj' --out out/
 //! ```
 //!
-//! Writes one file per frame and format (`yarns_000001.obj` ...) and `manifest.json` with the
+//! Writes one file per frame and format (`yarns_000001.obj` ...), with `--png` a rendered image
+//! of the yarns as tubes of the pattern's yarn radius per frame (`frame_0001.png` ...,
+//! [`deform_runtime::render`], view fitted to each frame), and `manifest.json` with the
 //! configuration, the precompute counters and per-frame statistics and timings.
 
 use std::path::PathBuf;
@@ -16,6 +18,7 @@ use deform_runtime::gpu::{Backend, GpuDeformer};
 use deform_runtime::obj::{expand_sequence, read_obj, read_obj_positions};
 use deform_runtime::output::Polylines;
 use deform_runtime::pipeline::{SetupOptions, build, load_pattern_and_database};
+use deform_runtime::render::{Camera, RenderOptions, render_tubes};
 use deform_runtime::{DeformOptions, EmbedOptions};
 
 #[derive(Parser)]
@@ -90,6 +93,44 @@ struct RunArgs {
     /// Back end of the per-vertex stage: `auto` uses the GPU when an adapter exists.
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
     backend: BackendChoice,
+    /// Also render each frame as shaded tubes of the pattern's yarn radius into
+    /// `frame_0001.png` ... (orthographic, fitted to the frame's yarns).
+    #[arg(long)]
+    png: bool,
+    /// PNG size in pixels, `WIDTHxHEIGHT`.
+    #[arg(long, default_value = "1024x768", value_parser = parse_size)]
+    png_size: [u32; 2],
+    /// PNG view direction `x,y,z` (from the eye into the scene; default: top view).
+    #[arg(long, default_value = "0,0,-1", value_parser = parse_vec3)]
+    png_view: [f64; 3],
+    /// PNG up direction `x,y,z` (must not be parallel to the view direction).
+    #[arg(long, default_value = "0,1,0", value_parser = parse_vec3)]
+    png_up: [f64; 3],
+}
+
+fn parse_size(s: &str) -> Result<[u32; 2], String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT, found {s:?}"))?;
+    let parse = |t: &str| {
+        t.trim()
+            .parse::<u32>()
+            .map_err(|e| format!("{t:?} in {s:?}: {e}"))
+    };
+    Ok([parse(w)?, parse(h)?])
+}
+
+fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<f64>()
+                .map_err(|e| format!("{t:?} in {s:?}: {e}"))
+        })
+        .collect::<Result<_, _>>()?;
+    v.try_into()
+        .map_err(|v: Vec<f64>| format!("expected three comma-separated numbers, found {}", v.len()))
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
@@ -129,6 +170,17 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
             ..DeformOptions::default()
         },
     };
+    let render = args.png.then(|| RenderOptions {
+        camera: Camera {
+            direction: args.png_view,
+            up: args.png_up,
+        },
+        supersample: 2,
+        ..RenderOptions::new(args.png_size[0], args.png_size[1], tile.radius)
+    });
+    if let Some(render) = &render {
+        render.validate().context("PNG options")?;
+    }
     let t_setup = Instant::now();
     let mut deformer = build::<f32>(&tile, &db, &rest, &options)?;
     let setup_seconds = t_setup.elapsed().as_secs_f64();
@@ -195,8 +247,18 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
             }
             written.push(file);
         }
+        let mut rendered = serde_json::Value::Null;
+        if let Some(render) = &render {
+            let file = args.out.join(format!("frame_{:04}.png", k + 1));
+            let r = render_tubes(&lines, render)?;
+            r.image.write_png(&file)?;
+            rendered = serde_json::json!({
+                "segments": r.segments, "skipped_vertices": r.skipped_vertices, "framing": r.framing,
+            });
+            written.push(file);
+        }
         per_frame.push(serde_json::json!({
-            "input": path, "outputs": written, "stats": stats,
+            "input": path, "outputs": written, "stats": stats, "render": rendered,
             "write_seconds": t_write.elapsed().as_secs_f64(),
         }));
         bar.inc(1);
@@ -207,6 +269,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         "version": env!("CARGO_PKG_VERSION"),
         "config": args,
         "options": options,
+        "render": render,
         "backend": backend_message,
         "threads": rayon::current_num_threads(),
         "pattern": { "vertices": tile.positions.len(), "period_m": tile.period, "radius_m": tile.radius },

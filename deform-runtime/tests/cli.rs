@@ -72,6 +72,11 @@ fn run_writes_frames_and_manifest_and_reports_bad_meshes() {
             "obj",
             "--format",
             "bcc",
+            "--png",
+            "--png-size",
+            "160x120",
+            "--png-view",
+            "0.2,0.4,-1",
         ])
         .arg("--database")
         .arg(dir.join("db"))
@@ -112,6 +117,37 @@ fn run_writes_frames_and_manifest_and_reports_bad_meshes() {
         serde_json::Value::Bool(true)
     );
     assert!(manifest["embedding"]["vertices"].as_u64().unwrap() > 100);
+    // --png: one rendered PNG per frame, 160 × 120, with every yarn edge drawn.
+    for (k, frame) in frames.iter().enumerate() {
+        let png = std::fs::read(out.join(format!("frame_{:04}.png", k + 1))).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!(&png[12..16], b"IHDR");
+        assert_eq!(u32::from_be_bytes(png[16..20].try_into().unwrap()), 160);
+        assert_eq!(u32::from_be_bytes(png[20..24].try_into().unwrap()), 120);
+        assert!(frame["render"]["segments"].as_u64().unwrap() > 100);
+        assert_eq!(frame["render"]["skipped_vertices"].as_u64(), Some(0));
+    }
+    assert_eq!(manifest["render"]["width"].as_u64(), Some(160));
+
+    // A degenerate PNG camera is rejected before any frame is written.
+    let status = Command::new(env!("CARGO_BIN_EXE_deform-runtime"))
+        .args(["run", "--pattern", pattern, "--backend", "cpu", "--png"])
+        .args(["--png-view", "0,1,0", "--png-up", "0,2,0"])
+        .arg("--database")
+        .arg(dir.join("db"))
+        .arg("--mesh")
+        .arg(dir.join("anim/cloth_*.obj"))
+        .arg("--out")
+        .arg(dir.join("out3"))
+        .output()
+        .unwrap();
+    assert!(!status.status.success());
+    let stderr = String::from_utf8_lossy(&status.stderr);
+    assert!(
+        stderr.contains("PNG options") && stderr.contains("camera"),
+        "{stderr}"
+    );
+    assert!(!dir.join("out3").exists());
 
     // A mesh without UVs fails with the file and line.
     write_obj(&dir.join("nouv.obj"), &mesh, &rest, false);

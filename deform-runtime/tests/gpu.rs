@@ -7,11 +7,15 @@
 mod common;
 
 use common::*;
-use deform_runtime::gpu::{GpuDeformer, GpuError};
+use deform_runtime::gpu::{Chunking, GpuDeformer, GpuError};
 use deform_runtime::{DeformOptions, Deformer, synthetic};
 
 fn gpu_or_skip(cpu: &Deformer<f32>) -> Option<GpuDeformer> {
-    match GpuDeformer::new(cpu) {
+    gpu_chunked_or_skip(cpu, Chunking::default())
+}
+
+fn gpu_chunked_or_skip(cpu: &Deformer<f32>, chunking: Chunking) -> Option<GpuDeformer> {
+    match GpuDeformer::with_chunking(cpu, chunking) {
         Ok(gpu) => {
             eprintln!("GPU test on {}", gpu.adapter());
             Some(gpu)
@@ -94,4 +98,78 @@ fn cpu_and_gpu_agree() {
             }
         }
     }
+}
+
+/// Splitting the per-vertex buffers into chunks (one dispatch each) changes nothing: tiny
+/// chunks, including ones that are not a multiple of the workgroup size and ones dispatched
+/// as 2-D grids, give bit-identical output to one chunk, and agree with the CPU.
+#[test]
+fn chunked_dispatch_equals_unchunked_and_cpu() {
+    let tile = stockinette();
+    let db = database(&tile);
+    let mesh = grid(&tile, 6.0, 8.0, 6);
+    let moved = synthetic::map_uvs(&mesh, |uv| synthetic::wave(uv, 2.0));
+    let mut cpu = deformer::<f32>(&tile, &db, &mesh, DeformOptions::default());
+    cpu.frame(&moved).unwrap();
+    let n = cpu.embedding().len();
+    let Some(mut whole) = gpu_or_skip(&cpu) else {
+        return;
+    };
+    assert_eq!(whole.chunk_lengths(), [n], "the test mesh fits one chunk");
+    let mut for_gpu = cpu.clone();
+    whole.frame(&mut for_gpu, &moved).unwrap();
+    let (rel, _) = compare(&cpu, &whole);
+    assert!(rel < 1e-5, "unchunked: {rel:e}");
+    for chunking in [
+        // 37 vertices: partial workgroups in every chunk.
+        Chunking {
+            max_vertices: 37,
+            ..Chunking::default()
+        },
+        // 1000 vertices in rows of 2 workgroups: 8 rows of 128 invocations per chunk.
+        Chunking {
+            max_vertices: 1000,
+            row_groups: 2,
+        },
+        // A third of the vertices, one workgroup per row.
+        Chunking {
+            max_vertices: n.div_ceil(3),
+            row_groups: 1,
+        },
+    ] {
+        let mut gpu = gpu_chunked_or_skip(&cpu, chunking).expect("adapter found above");
+        let lengths = gpu.chunk_lengths();
+        assert_eq!(lengths.len(), n.div_ceil(chunking.max_vertices));
+        assert_eq!(lengths.iter().sum::<usize>(), n);
+        assert!(lengths.iter().all(|&l| l <= chunking.max_vertices));
+        let mut for_gpu = cpu.clone();
+        let stats = gpu.frame(&mut for_gpu, &moved).unwrap();
+        assert_eq!(stats.vertices.processed, n);
+        assert_eq!(stats.vertices.nonfinite_output, 0);
+        let (a, b) = (whole.output(), gpu.output());
+        let same = |p: &[f32], q: &[f32]| p.iter().zip(q).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(
+            same(&a.x, &b.x) && same(&a.y, &b.y) && same(&a.z, &b.z) && same(&a.twist, &b.twist),
+            "{chunking:?}: chunked output differs from the single dispatch"
+        );
+        let (rel, twist) = compare(&cpu, &gpu);
+        eprintln!(
+            "{} chunks of ≤ {} vertices ({n} in all): CPU vs GPU {rel:.2e}, twist {twist:.2e} rad",
+            lengths.len(),
+            chunking.max_vertices
+        );
+        assert!(
+            rel < 1e-5 && twist < 1e-5,
+            "{chunking:?}: {rel:e}, {twist:e}"
+        );
+    }
+    // Invalid chunking is an error, not a panic.
+    let zero = Chunking {
+        max_vertices: 0,
+        ..Chunking::default()
+    };
+    assert!(matches!(
+        GpuDeformer::with_chunking(&cpu, zero),
+        Err(GpuError::Chunking(_))
+    ));
 }

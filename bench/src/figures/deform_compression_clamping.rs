@@ -5,12 +5,15 @@
 //! set yet): a buckling mode whose out-of-plane amplitude grows with compression,
 //! `Δz = R · 2(−sx)₊ · sin(2π v / 7)` per pattern vertex v, plus a small in-plane part. The
 //! figure therefore shows what clamping does to a database that buckles, not the buckling of
-//! real yarns.
+//! real yarns. At the largest compression the sheet without clamping and with λmin = 0.8 is
+//! rendered as shaded yarn tubes (`deform_runtime::render`, grazing view, same scale).
 
+use deform_runtime::output::Polylines;
 use deform_runtime::pipeline::{SetupOptions, build, read_pattern};
-use deform_runtime::{DeformOptions, synthetic};
+use deform_runtime::render::{Camera, Framing, RenderOptions, Rendering, render_tubes};
+use deform_runtime::{DeformOptions, Deformer, synthetic};
 
-use crate::plot::{LineChart, Series};
+use crate::plot::{LineChart, Series, save_images};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
 
 /// Registry entry.
@@ -18,11 +21,24 @@ pub fn spec() -> FigureSpec {
     FigureSpec {
         name: "compression-clamping",
         title: "Compression clamping",
-        shows: "RMS out-of-plane yarn displacement / R of a compressed flat sheet against compression, without clamping and for λmin = 0.6 … 0.9, plus the large-scale width (unchanged by clamping)",
+        shows: "RMS out-of-plane yarn displacement / R of a compressed flat sheet against compression, without clamping and for λmin = 0.6 … 0.9, plus the large-scale width (unchanged by clamping); the sheet at the largest compression without clamping and with λmin = 0.8 rendered as shaded tubes (…-tubes.png)",
         paper: "Fig. 6: clamping the eigenvalues of I at λmin limits buckling in a user-tunable way while the large-scale deformation is preserved; reproduced qualitatively with a synthetic buckling database",
         guarded: false,
         run,
     }
+}
+
+/// `d`'s output rendered as tubes (radius `options.radius`).
+fn tubes(d: &Deformer<f64>, options: &RenderOptions) -> anyhow::Result<Rendering> {
+    let (e, o) = (d.embedding(), d.output());
+    let lines = Polylines {
+        x: &o.x,
+        y: &o.y,
+        z: &o.z,
+        curve_offsets: &e.curve_offsets,
+        closed: &e.closed,
+    };
+    Ok(render_tubes(&lines, options)?)
 }
 
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
@@ -51,6 +67,19 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         .collect();
     let lambdas: [Option<f64>; 5] = [None, Some(0.6), Some(0.7), Some(0.8), Some(0.9)];
     let progress = ctx.progress(lambdas.len() as u64, "λmin values");
+    // Grazing view along +y so the out-of-plane buckling shows; the unclamped sheet fixes the
+    // framing and the clamped one reuses it.
+    let camera = Camera {
+        direction: [0.0, 1.0, -0.45],
+        up: [0.0, 0.0, 1.0],
+    };
+    let mut render = RenderOptions {
+        camera,
+        framing: Framing::Auto { margin: 0.05 },
+        supersample: 3,
+        ..RenderOptions::new(640, 420, r)
+    };
+    let mut images: Vec<(String, Rendering)> = Vec::new();
     let mut data = Table::new(&[
         "compression",
         "rms_dz_over_r_no_clamp",
@@ -107,6 +136,15 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             } else if *lmin == Some(0.8) {
                 rows[i][7] = ratio;
             }
+            if i + 1 == compressions.len() && (j == 0 || *lmin == Some(0.8)) {
+                let image = tubes(&d, &render)?;
+                render.framing = image.framing;
+                let label = match lmin {
+                    None => "no clamping".to_string(),
+                    Some(l) => format!("λmin = {l}"),
+                };
+                images.push((format!("{label}, {:.0} % compression", 100.0 * c), image));
+            }
         }
         progress.inc(1);
     }
@@ -140,6 +178,11 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             zip(&col("rms_dz_over_r_lmin_0.9")),
         ))
         .save(&ctx.out_dir, ctx.name)?;
+    let panels: Vec<(&str, &deform_runtime::render::Image)> = images
+        .iter()
+        .map(|(label, r)| (label.as_str(), &r.image))
+        .collect();
+    save_images(&panels, &ctx.out_dir, &format!("{}-tubes", ctx.name))?;
     let last = data.rows.last().cloned().unwrap_or_default();
     Ok(FigureOutput {
         summary: vec![
@@ -161,6 +204,8 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             "database": "synthetic: Δz = R·2(−sx)₊·sin(2πv/7), Δx = 0.1·R·sx",
             "cells": [cu, cv], "compressions": compressions, "lambda_min": [null, 0.6, 0.7, 0.8, 0.9],
             "precision": "f64",
+            "tubes": {"file": format!("{}-tubes.png", ctx.name), "camera": camera,
+                      "framing": render.framing, "radius_m": r},
         }),
         data,
     })

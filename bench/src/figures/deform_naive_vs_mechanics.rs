@@ -3,13 +3,16 @@
 //! embedding: the mesh map applied to the rest pattern). Reports the position difference / R,
 //! the yarn length ratio (deformed / rest polyline length — naive embedding stretches the yarn
 //! with the mesh, a mechanics-aware result straightens loops instead) and the out-of-plane
-//! loop displacement, and draws a top view of both at the largest stretch.
+//! loop displacement, and draws a top view of both at the largest stretch, plus both rendered as
+//! shaded yarn tubes of radius R (`deform_runtime::render`) at the same scale.
 
+use deform_runtime::output::Polylines;
 use deform_runtime::pipeline::{SetupOptions, build};
+use deform_runtime::render::{Camera, Framing, RenderOptions, Rendering, render_tubes};
 use deform_runtime::{DeformOptions, Deformer, Real, synthetic};
 
 use super::deform_real_db as real;
-use crate::plot::{LineChart, Series, save_side_by_side};
+use crate::plot::{LineChart, Series, save_images, save_side_by_side};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
 
 /// Registry entry.
@@ -17,7 +20,7 @@ pub fn spec() -> FigureSpec {
     FigureSpec {
         name: "naive-vs-mechanics-aware",
         title: "Naive vs mechanics-aware embedding",
-        shows: "flat stockinette sheet under uniaxial stretch sx: RMS / max yarn-vertex difference between naive embedding and database displacement (/ R), yarn length ratio (deformed / rest) of both, RMS out-of-plane loop displacement / R; plus a top view of the yarns at the largest stretch (…-top-view.png)",
+        shows: "flat stockinette sheet under uniaxial stretch sx: RMS / max yarn-vertex difference between naive embedding and database displacement (/ R), yarn length ratio (deformed / rest) of both, RMS out-of-plane loop displacement / R; plus a top view of the yarns at the largest stretch (…-top-view.png) and both rendered as shaded tubes of radius R at the same scale (…-tubes.png)",
         paper: "Figs. 9–10: naive embedding stretches the yarns with the mesh, the mechanics-aware result keeps yarn length and changes loop shape; here with a real sim-periodic database (3³ in quick mode, 5³ in full mode, over sx, sy ∈ [−0.1, 0.3], sa ∈ [−0.2, 0.2])",
         guarded: false,
         run,
@@ -67,6 +70,19 @@ fn top_view<T: Real>(d: &Deformer<T>, title: &str) -> LineChart {
         chart = chart.series(Series::line("", pts));
     }
     chart
+}
+
+/// `d`'s output rendered as tubes (radius `options.radius`).
+fn tubes(d: &Deformer<f64>, options: &RenderOptions) -> anyhow::Result<Rendering> {
+    let (e, o) = (d.embedding(), d.output());
+    let lines = Polylines {
+        x: &o.x,
+        y: &o.y,
+        z: &o.z,
+        curve_offsets: &e.curve_offsets,
+        closed: &e.closed,
+    };
+    Ok(render_tubes(&lines, options)?)
 }
 
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
@@ -142,6 +158,40 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         &ctx.out_dir,
         &format!("{}-top-view", ctx.name),
     )?;
+    // Slightly oblique so loop crossings and out-of-plane shape read as depth; the naive
+    // image fixes the framing, the mechanics-aware one reuses it (same scale and centre).
+    let camera = Camera {
+        direction: [0.0, 0.35, -1.0],
+        up: [0.0, 1.0, 0.0],
+    };
+    let render = RenderOptions {
+        camera,
+        framing: Framing::Auto { margin: 0.05 },
+        supersample: 3,
+        ..RenderOptions::new(800, 380, r)
+    };
+    let naive_image = tubes(&naive, &render)?;
+    let aware_image = tubes(
+        &aware,
+        &RenderOptions {
+            framing: naive_image.framing,
+            ..render.clone()
+        },
+    )?;
+    save_images(
+        &[
+            (
+                &format!("Naive embedding, sx = {last:.2}"),
+                &naive_image.image,
+            ),
+            (
+                &format!("Mechanics-aware ({n}³ database), sx = {last:.2}"),
+                &aware_image.image,
+            ),
+        ],
+        &ctx.out_dir,
+        &format!("{}-tubes", ctx.name),
+    )?;
 
     let col = |name: &str| data.column(name).expect("column exists");
     let x = col("stretch_sx");
@@ -204,6 +254,9 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             "sheet_cells": cells, "sheet_quads": 8, "yarn_vertices": aware.embedding().len(),
             "stretches": stretches, "precision": "f64",
             "top_view": format!("{}-top-view.png", ctx.name),
+            "tubes": {"file": format!("{}-tubes.png", ctx.name), "camera": camera,
+                      "framing": naive_image.framing, "radius_m": r,
+                      "segments": [naive_image.segments, aware_image.segments]},
         }),
         data,
     })

@@ -1,0 +1,670 @@
+//! A small software renderer of yarn polylines as shaded tubes, and a minimal PNG encoder, for
+//! figures and the CLI's `--png` output (no image crates).
+//!
+//! Every segment of every curve is a capsule of radius R (a cylinder with hemispherical caps,
+//! so consecutive segments join smoothly; a one-vertex curve is a sphere). Under the
+//! orthographic camera ([`Camera`]) each pixel is a ray along the view direction; the ray is
+//! intersected exactly with the capsules whose screen-space bounding box contains the pixel,
+//! and a per-pixel depth buffer keeps the nearest hit (so the result does not depend on the
+//! drawing order). The shading normal is `(p − q) / R`, with `p` the hit point and `q` the
+//! closest point of the segment's centreline to it; the colour is the curve's palette colour
+//! times `ambient + (1 − ambient)·max(0, n·L)` (Lambert plus ambient).
+//!
+//! The view is fitted to the bounding box of the finite vertices grown by R ([`Framing::Auto`])
+//! or given explicitly ([`Framing::Fixed`], e.g. to draw two results at the same scale);
+//! [`Rendering::framing`] returns the framing used, always as [`Framing::Fixed`].
+//!
+//! Robustness: a vertex with a non-finite coordinate is skipped (the segments touching it are
+//! not drawn) and counted in [`Rendering::skipped_vertices`]. Input with nothing to draw (no
+//! curves, or no finite vertex) gives a blank image of the background colour with
+//! [`Rendering::segments`] = 0; it is not an error, so an animation keeps one image per frame.
+//! Invalid options (zero size, R ≤ 0, a degenerate camera) and inconsistent polylines are
+//! errors ([`DeformError::Option`]).
+//!
+//! The PNG encoder ([`encode_png`]) writes 8-bit RGB, filter 0, and a zlib stream of *stored*
+//! (uncompressed) deflate blocks: ≈ 3 bytes per pixel, readable by every PNG decoder.
+
+use std::path::Path;
+
+use crate::error::{DeformError, Result};
+use crate::output::Polylines;
+use crate::real::Real;
+
+/// An orthographic camera: where it looks and which way is up.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Camera {
+    /// View direction, from the eye into the scene (world, any length > 0). Default
+    /// `[0, 0, −1]`: a top view of a sheet in the xy plane.
+    pub direction: [f64; 3],
+    /// Approximate up direction on screen (world); made orthogonal to `direction`. Must not be
+    /// parallel to it. Default `[0, 1, 0]`.
+    pub up: [f64; 3],
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Self {
+            direction: [0.0, 0.0, -1.0],
+            up: [0.0, 1.0, 0.0],
+        }
+    }
+}
+
+/// How world lengths map to pixels.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum Framing {
+    /// Fit the bounding box of the finite vertices, grown by R, into the image, leaving
+    /// `margin` (a fraction of the image size on each side, in [0, 0.45]) free.
+    Auto {
+        /// Free border on each side as a fraction of the image width/height.
+        margin: f64,
+    },
+    /// A fixed view.
+    Fixed {
+        /// Screen coordinates (m) of the image centre: world positions projected on the
+        /// camera's right and up axes.
+        center: [f64; 2],
+        /// Scale (pixels per metre, > 0).
+        pixels_per_metre: f64,
+    },
+}
+
+/// Renderer settings.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RenderOptions {
+    /// Image width (pixels, ≥ 1).
+    pub width: u32,
+    /// Image height (pixels, ≥ 1).
+    pub height: u32,
+    /// Tube radius R (m, > 0); usually the pattern's yarn radius.
+    pub radius: f64,
+    /// The camera.
+    pub camera: Camera,
+    /// The framing (default: auto-fit with a 4 % margin).
+    pub framing: Framing,
+    /// Direction towards the light in camera coordinates (right, up, into the screen); the
+    /// default `[−0.4, 0.5, −1]` lights from the upper left, in front of the scene.
+    pub light: [f64; 3],
+    /// Ambient fraction of the shading, in [0, 1] (default 0.25).
+    pub ambient: f64,
+    /// Background colour (sRGB, default white).
+    pub background: [u8; 3],
+    /// Colours of the curves: curve `c` uses `palette[c % palette.len()]` (non-empty).
+    pub palette: Vec<[u8; 3]>,
+    /// Samples per pixel along each axis (1 … 8); the image is rendered at this multiple of
+    /// its size and box-filtered down (anti-aliasing). Default 1.
+    pub supersample: u32,
+}
+
+/// A palette of eight distinguishable colours (Okabe–Ito, without black).
+pub const DEFAULT_PALETTE: [[u8; 3]; 8] = [
+    [230, 159, 0],
+    [86, 180, 233],
+    [0, 158, 115],
+    [240, 228, 66],
+    [0, 114, 178],
+    [213, 94, 0],
+    [204, 121, 167],
+    [120, 120, 120],
+];
+
+impl RenderOptions {
+    /// Defaults for an image of `width × height` pixels and tubes of radius `radius` (m).
+    pub fn new(width: u32, height: u32, radius: f64) -> Self {
+        Self {
+            width,
+            height,
+            radius,
+            camera: Camera::default(),
+            framing: Framing::Auto { margin: 0.04 },
+            light: [-0.4, 0.5, -1.0],
+            ambient: 0.25,
+            background: [255, 255, 255],
+            palette: DEFAULT_PALETTE.to_vec(),
+            supersample: 1,
+        }
+    }
+
+    /// Checks every option (done by [`render_tubes`] too); the camera is checked as well.
+    pub fn validate(&self) -> Result<()> {
+        basis(&self.camera)?;
+        let bad = |name: &'static str, message: String| Err(DeformError::Option { name, message });
+        let ss = u64::from(self.supersample);
+        if self.width == 0
+            || self.height == 0
+            || u64::from(self.width) * u64::from(self.height) * ss * ss > MAX_PIXELS
+        {
+            return bad(
+                "render size",
+                format!(
+                    "expected width, height ≥ 1 and at most {MAX_PIXELS} (super)samples, found {} × {} × {}²",
+                    self.width, self.height, self.supersample
+                ),
+            );
+        }
+        if !(1..=8).contains(&self.supersample) {
+            return bad(
+                "supersample",
+                format!("expected 1 … 8, found {}", self.supersample),
+            );
+        }
+        if !(self.radius.is_finite() && self.radius > 0.0) {
+            return bad(
+                "radius",
+                format!("expected a finite tube radius > 0 m, found {}", self.radius),
+            );
+        }
+        if !(self.ambient.is_finite() && (0.0..=1.0).contains(&self.ambient)) {
+            return bad(
+                "ambient",
+                format!("expected a value in [0, 1], found {}", self.ambient),
+            );
+        }
+        if self.palette.is_empty() {
+            return bad("palette", "expected at least one colour".into());
+        }
+        if normalize(self.light).is_none() {
+            return bad(
+                "light",
+                format!(
+                    "expected a finite non-zero direction, found {:?}",
+                    self.light
+                ),
+            );
+        }
+        match self.framing {
+            Framing::Auto { margin } if !(0.0..=0.45).contains(&margin) => bad(
+                "framing",
+                format!("expected a margin in [0, 0.45], found {margin}"),
+            ),
+            Framing::Fixed {
+                center,
+                pixels_per_metre,
+            } if !(center.iter().all(|c| c.is_finite())
+                && pixels_per_metre.is_finite()
+                && pixels_per_metre > 0.0) =>
+            {
+                bad(
+                    "framing",
+                    format!(
+                        "expected a finite centre and a scale > 0, found {center:?}, {pixels_per_metre}"
+                    ),
+                )
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// At most this many (super)samples per image (1 GiB of depth and colour buffers).
+const MAX_PIXELS: u64 = 1 << 26;
+
+/// An 8-bit RGB image, rows from top to bottom.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Image {
+    /// Width (pixels).
+    pub width: u32,
+    /// Height (pixels).
+    pub height: u32,
+    /// `3 · width · height` bytes, row-major from the top-left pixel.
+    pub rgb: Vec<u8>,
+}
+
+impl Image {
+    /// The colour of pixel `(x, y)` (column, row from the top).
+    ///
+    /// # Panics
+    /// If the pixel is outside the image.
+    pub fn pixel(&self, x: u32, y: u32) -> [u8; 3] {
+        assert!(x < self.width && y < self.height, "pixel outside the image");
+        let k = 3 * (y as usize * self.width as usize + x as usize);
+        [self.rgb[k], self.rgb[k + 1], self.rgb[k + 2]]
+    }
+
+    /// The image as PNG bytes ([`encode_png`]).
+    pub fn to_png(&self) -> Vec<u8> {
+        encode_png(self.width, self.height, &self.rgb)
+    }
+
+    /// Writes the image as a PNG file.
+    pub fn write_png(&self, path: &Path) -> Result<()> {
+        std::fs::write(path, self.to_png()).map_err(|source| DeformError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    }
+}
+
+/// A rendered image and what went into it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rendering {
+    /// The image.
+    pub image: Image,
+    /// The framing used (always [`Framing::Fixed`]); pass it back in [`RenderOptions`] to draw
+    /// another result at the same scale.
+    pub framing: Framing,
+    /// Segments drawn (a one-vertex curve counts as one).
+    pub segments: usize,
+    /// Vertices with a non-finite coordinate (not drawn).
+    pub skipped_vertices: usize,
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
+    let n = dot(a, a).sqrt();
+    (n.is_finite() && n > 0.0).then(|| a.map(|c| c / n))
+}
+
+/// The camera's (right, up, forward) basis.
+fn basis(camera: &Camera) -> Result<[[f64; 3]; 3]> {
+    let err = || DeformError::Option {
+        name: "camera",
+        message: format!(
+            "expected finite non-zero, non-parallel direction and up, found {:?} and {:?}",
+            camera.direction, camera.up
+        ),
+    };
+    let f = normalize(camera.direction).ok_or_else(err)?;
+    let up = normalize(camera.up).ok_or_else(err)?;
+    let r = cross(f, up);
+    if dot(r, r) < 1e-12 {
+        return Err(err());
+    }
+    let r = normalize(r).ok_or_else(err)?;
+    Ok([r, cross(r, f), f])
+}
+
+/// First intersection (depth along +z) of the line `(px, py, t)` with the capsule of radius
+/// `r` around segment `a`–`b` (camera coordinates), or `None`.
+fn hit_capsule(px: f64, py: f64, a: [f64; 3], b: [f64; 3], r: f64) -> Option<f64> {
+    let r2 = r * r;
+    let mut best = f64::INFINITY;
+    let mut sphere = |c: [f64; 3]| {
+        let (dx, dy) = (px - c[0], py - c[1]);
+        let h = r2 - dx * dx - dy * dy;
+        if h >= 0.0 {
+            best = best.min(c[2] - h.sqrt());
+        }
+    };
+    sphere(a);
+    sphere(b);
+    // Cylinder body: |(o − a) × ba|² = r²|ba|² with o = (px, py, t) (Inigo Quilez's form).
+    let ba = sub(b, a);
+    let baba = dot(ba, ba);
+    let oa = [px - a[0], py - a[1], -a[2]];
+    let bard = ba[2];
+    let baoa = dot(ba, oa);
+    let qa = baba - bard * bard;
+    // A segment (nearly) along the view direction shows only its caps.
+    if qa > 1e-12 * baba {
+        let qb = baba * oa[2] - baoa * bard;
+        let qc = baba * dot(oa, oa) - baoa * baoa - r2 * baba;
+        let h = qb * qb - qa * qc;
+        if h >= 0.0 {
+            let t = (-qb - h.sqrt()) / qa;
+            let y = baoa + t * bard;
+            if y > 0.0 && y < baba {
+                best = best.min(t);
+            }
+        }
+    }
+    best.is_finite().then_some(best)
+}
+
+/// Renders the curves of `lines` as tubes (see the module documentation).
+pub fn render_tubes<T: Real>(
+    lines: &Polylines<'_, T>,
+    options: &RenderOptions,
+) -> Result<Rendering> {
+    options.validate()?;
+    let n = lines.x.len();
+    let n_curves = lines.curve_offsets.len().saturating_sub(1);
+    let consistent = lines.y.len() == n
+        && lines.z.len() == n
+        && lines.closed.len() == n_curves
+        && lines.curve_offsets.windows(2).all(|w| w[0] <= w[1])
+        && lines.curve_offsets.last().is_none_or(|&e| e as usize <= n);
+    if !consistent {
+        return Err(DeformError::Option {
+            name: "polylines",
+            message: format!(
+                "inconsistent polylines: {n} x, {} y, {} z, {} curve offsets (last {:?}), {} closed flags",
+                lines.y.len(),
+                lines.z.len(),
+                lines.curve_offsets.len(),
+                lines.curve_offsets.last(),
+                lines.closed.len()
+            ),
+        });
+    }
+    let [right, up, forward] = basis(&options.camera)?;
+    // Camera coordinates (screen x, screen y, depth); NaN marks a skipped vertex.
+    let mut skipped = 0;
+    let cam: Vec<[f64; 3]> = (0..n)
+        .map(|k| {
+            let p = [
+                lines.x[k].to_f64(),
+                lines.y[k].to_f64(),
+                lines.z[k].to_f64(),
+            ];
+            if p.iter().all(|c| c.is_finite()) {
+                [dot(p, right), dot(p, up), dot(p, forward)]
+            } else {
+                skipped += 1;
+                [f64::NAN; 3]
+            }
+        })
+        .collect();
+    let radius = options.radius;
+    let (w, h) = (f64::from(options.width), f64::from(options.height));
+    let (center, scale) = match options.framing {
+        Framing::Fixed {
+            center,
+            pixels_per_metre,
+        } => (center, pixels_per_metre),
+        Framing::Auto { margin } => {
+            let mut lo = [f64::INFINITY; 2];
+            let mut hi = [f64::NEG_INFINITY; 2];
+            for p in cam.iter().filter(|p| p[0].is_finite()) {
+                for d in 0..2 {
+                    lo[d] = lo[d].min(p[d] - radius);
+                    hi[d] = hi[d].max(p[d] + radius);
+                }
+            }
+            if lo[0].is_finite() {
+                let free = 1.0 - 2.0 * margin;
+                let sx = free * w / (hi[0] - lo[0]);
+                let sy = free * h / (hi[1] - lo[1]);
+                ([0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])], sx.min(sy))
+            } else {
+                ([0.0, 0.0], 1.0)
+            }
+        }
+    };
+    let framing = Framing::Fixed {
+        center,
+        pixels_per_metre: scale,
+    };
+    let ss = options.supersample;
+    let (sw, sh) = (options.width * ss, options.height * ss);
+    let s = scale * f64::from(ss);
+    // Screen coordinates of the centre of sample (i, j).
+    let to_screen_x = |i: usize| center[0] + (i as f64 + 0.5 - 0.5 * f64::from(sw)) / s;
+    let to_screen_y = |j: usize| center[1] - (j as f64 + 0.5 - 0.5 * f64::from(sh)) / s;
+    // Sample range covered by [lo, hi] in screen coordinates (empty when outside).
+    let cols = |lo: f64, hi: f64| {
+        let a = ((lo - center[0]) * s + 0.5 * f64::from(sw) - 0.5)
+            .ceil()
+            .max(0.0);
+        let b = ((hi - center[0]) * s + 0.5 * f64::from(sw) - 0.5)
+            .floor()
+            .min(f64::from(sw) - 1.0);
+        a as usize..(b + 1.0).max(a) as usize
+    };
+    let rows = |lo: f64, hi: f64| {
+        let a = ((center[1] - hi) * s + 0.5 * f64::from(sh) - 0.5)
+            .ceil()
+            .max(0.0);
+        let b = ((center[1] - lo) * s + 0.5 * f64::from(sh) - 0.5)
+            .floor()
+            .min(f64::from(sh) - 1.0);
+        a as usize..(b + 1.0).max(a) as usize
+    };
+    let light = normalize(options.light).expect("validated");
+    let n_samples = sw as usize * sh as usize;
+    let mut depth = vec![f64::INFINITY; n_samples];
+    let mut colour = vec![options.background.map(f32::from); n_samples];
+    let mut segments = 0;
+    let mut draw = |a: [f64; 3], b: [f64; 3], base: [u8; 3]| {
+        segments += 1;
+        let ba = sub(b, a);
+        let baba = dot(ba, ba);
+        let (xs, ys) = (
+            cols(a[0].min(b[0]) - radius, a[0].max(b[0]) + radius),
+            rows(a[1].min(b[1]) - radius, a[1].max(b[1]) + radius),
+        );
+        for j in ys {
+            let py = to_screen_y(j);
+            for i in xs.clone() {
+                let px = to_screen_x(i);
+                let Some(t) = hit_capsule(px, py, a, b, radius) else {
+                    continue;
+                };
+                let k = j * sw as usize + i;
+                if t >= depth[k] {
+                    continue;
+                }
+                depth[k] = t;
+                let p = [px, py, t];
+                let u = if baba > 0.0 {
+                    (dot(sub(p, a), ba) / baba).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let q = [a[0] + u * ba[0], a[1] + u * ba[1], a[2] + u * ba[2]];
+                let normal = sub(p, q).map(|c| c / radius);
+                let lambert = dot(normal, light).max(0.0);
+                let shade = (options.ambient + (1.0 - options.ambient) * lambert) as f32;
+                colour[k] = base.map(|c| f32::from(c) * shade);
+            }
+        }
+    };
+    for c in 0..n_curves {
+        let (start, end) = (
+            lines.curve_offsets[c] as usize,
+            lines.curve_offsets[c + 1] as usize,
+        );
+        let base = options.palette[c % options.palette.len()];
+        let finite = |k: usize| cam[k][0].is_finite();
+        if end == start + 1 {
+            if finite(start) {
+                draw(cam[start], cam[start], base);
+            }
+            continue;
+        }
+        for k in start + 1..end {
+            if finite(k - 1) && finite(k) {
+                draw(cam[k - 1], cam[k], base);
+            }
+        }
+        if lines.closed[c] && end > start + 2 && finite(end - 1) && finite(start) {
+            draw(cam[end - 1], cam[start], base);
+        }
+    }
+    // Box filter down to the output size.
+    let (width, height) = (options.width as usize, options.height as usize);
+    let ss = ss as usize;
+    let norm = 1.0 / (ss * ss) as f32;
+    let mut rgb = Vec::with_capacity(3 * width * height);
+    for y in 0..height {
+        for x in 0..width {
+            let mut acc = [0.0f32; 3];
+            for j in y * ss..(y + 1) * ss {
+                for i in x * ss..(x + 1) * ss {
+                    let c = colour[j * sw as usize + i];
+                    for d in 0..3 {
+                        acc[d] += c[d];
+                    }
+                }
+            }
+            rgb.extend(acc.map(|v| (v * norm).round().clamp(0.0, 255.0) as u8));
+        }
+    }
+    Ok(Rendering {
+        image: Image {
+            width: options.width,
+            height: options.height,
+            rgb,
+        },
+        framing,
+        segments,
+        skipped_vertices: skipped,
+    })
+}
+
+const CRC_TABLE: [u32; 256] = {
+    let mut table = [0u32; 256];
+    let mut n = 0;
+    while n < 256 {
+        let mut c = n as u32;
+        let mut k = 0;
+        while k < 8 {
+            c = if c & 1 != 0 {
+                0xEDB8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+            k += 1;
+        }
+        table[n] = c;
+        n += 1;
+    }
+    table
+};
+
+/// CRC-32 (ISO 3309 / ITU-T V.42, polynomial 0xEDB88320 reflected) as used by PNG chunks.
+pub fn crc32(bytes: &[u8]) -> u32 {
+    !bytes.iter().fold(!0u32, |c, &b| {
+        CRC_TABLE[((c ^ u32::from(b)) & 0xFF) as usize] ^ (c >> 8)
+    })
+}
+
+/// Adler-32 checksum (RFC 1950) of the uncompressed data of a zlib stream.
+pub fn adler32(bytes: &[u8]) -> u32 {
+    const MOD: u32 = 65521;
+    let (mut a, mut b) = (1u32, 0u32);
+    // 5552 bytes is the longest run for which the sums cannot overflow u32 (RFC 1950 / zlib).
+    for block in bytes.chunks(5552) {
+        for &x in block {
+            a += u32::from(x);
+            b += a;
+        }
+        a %= MOD;
+        b %= MOD;
+    }
+    (b << 16) | a
+}
+
+fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+    out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+    let start = out.len();
+    out.extend_from_slice(kind);
+    out.extend_from_slice(data);
+    let crc = crc32(&out[start..]);
+    out.extend_from_slice(&crc.to_be_bytes());
+}
+
+/// Encodes `width × height` 8-bit RGB pixels (`rgb`, row-major from the top, 3 bytes per
+/// pixel) as a PNG: signature, `IHDR` (colour type 2, no interlace), one `IDAT` holding a zlib
+/// stream of stored deflate blocks (≤ 65535 bytes each, every scanline with filter 0) and its
+/// Adler-32, and `IEND`; every chunk carries its CRC-32.
+///
+/// # Panics
+/// If `rgb.len() != 3 · width · height`.
+pub fn encode_png(width: u32, height: u32, rgb: &[u8]) -> Vec<u8> {
+    let row = 3 * width as usize;
+    assert_eq!(rgb.len(), row * height as usize, "RGB buffer size");
+    let mut raw = Vec::with_capacity((row + 1) * height as usize);
+    for line in rgb.chunks_exact(row.max(1)).take(height as usize) {
+        raw.push(0);
+        raw.extend_from_slice(line);
+    }
+    let mut z = Vec::with_capacity(raw.len() + raw.len() / 65535 * 5 + 16);
+    // CMF = 0x78 (deflate, 32 KiB window), FLG = 0x01 (no dictionary, check bits).
+    z.extend_from_slice(&[0x78, 0x01]);
+    let blocks: Vec<&[u8]> = if raw.is_empty() {
+        vec![&[]]
+    } else {
+        raw.chunks(65535).collect()
+    };
+    for (k, block) in blocks.iter().enumerate() {
+        let last = k + 1 == blocks.len();
+        z.push(u8::from(last)); // BFINAL, BTYPE = 00 (stored)
+        let len = block.len() as u16;
+        z.extend_from_slice(&len.to_le_bytes());
+        z.extend_from_slice(&(!len).to_le_bytes());
+        z.extend_from_slice(block);
+    }
+    z.extend_from_slice(&adler32(&raw).to_be_bytes());
+    let mut out = Vec::with_capacity(z.len() + 64);
+    out.extend_from_slice(b"\x89PNG\r\n\x1a\n");
+    let mut ihdr = Vec::with_capacity(13);
+    ihdr.extend_from_slice(&width.to_be_bytes());
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+    chunk(&mut out, b"IHDR", &ihdr);
+    chunk(&mut out, b"IDAT", &z);
+    chunk(&mut out, b"IEND", &[]);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checksums_match_published_check_values() {
+        // The CRC-32 check value of "123456789" (Rocksoft catalogue) and RFC 1950's example.
+        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
+        assert_eq!(crc32(b""), 0);
+        assert_eq!(adler32(b"Wikipedia"), 0x11E6_0398);
+        assert_eq!(adler32(b""), 1);
+        // Long input exercises the modular reduction: 1 MiB of 0xFF.
+        let long = vec![0xFFu8; 1 << 20];
+        let (mut a, mut b) = (1u64, 0u64);
+        for &x in &long {
+            a = (a + u64::from(x)) % 65521;
+            b = (b + a) % 65521;
+        }
+        assert_eq!(adler32(&long), ((b << 16) | a) as u32);
+    }
+
+    #[test]
+    fn capsule_hits_match_closed_forms() {
+        let r = 0.5;
+        // Segment along x at depth 2: on the axis the hit is at depth 2 − r.
+        let (a, b) = ([-1.0, 0.0, 2.0], [1.0, 0.0, 2.0]);
+        assert!((hit_capsule(0.0, 0.0, a, b, r).unwrap() - 1.5).abs() < 1e-12);
+        // Off-axis by y: depth 2 − √(r² − y²).
+        let y: f64 = 0.3;
+        let t = hit_capsule(0.2, y, a, b, r).unwrap();
+        assert!((t - (2.0 - (r * r - y * y).sqrt())).abs() < 1e-12);
+        // Beyond the end: the spherical cap.
+        let t = hit_capsule(1.3, 0.0, a, b, r).unwrap();
+        assert!((t - (2.0 - (r * r - 0.09f64).sqrt())).abs() < 1e-12);
+        assert!(hit_capsule(0.0, 0.51, a, b, r).is_none());
+        assert!(hit_capsule(1.51, 0.0, a, b, r).is_none());
+        // Segment along the view direction: only its near cap is seen.
+        let t = hit_capsule(0.0, 0.0, [0.0, 0.0, 1.0], [0.0, 0.0, 3.0], r).unwrap();
+        assert!((t - 0.5).abs() < 1e-12);
+        // Tilted segment: the hit point lies at distance r from the centreline.
+        let (a, b) = ([-1.0, 0.0, 1.0], [1.0, 0.5, 3.0]);
+        let t = hit_capsule(0.1, 0.2, a, b, r).unwrap();
+        let p = [0.1, 0.2, t];
+        let ba = sub(b, a);
+        let u = (dot(sub(p, a), ba) / dot(ba, ba)).clamp(0.0, 1.0);
+        let q = [a[0] + u * ba[0], a[1] + u * ba[1], a[2] + u * ba[2]];
+        let d = dot(sub(p, q), sub(p, q)).sqrt();
+        assert!((d - r).abs() < 1e-9, "distance {d}");
+        // ... and nothing is hit in front of it: a slightly smaller depth lies outside.
+        let p = [0.1, 0.2, t - 1e-6];
+        let u = (dot(sub(p, a), ba) / dot(ba, ba)).clamp(0.0, 1.0);
+        let q = [a[0] + u * ba[0], a[1] + u * ba[1], a[2] + u * ba[2]];
+        assert!(dot(sub(p, q), sub(p, q)).sqrt() > r);
+    }
+}
