@@ -263,7 +263,17 @@ fn root_find(
         if !c2.is_finite() {
             break;
         }
-        let (ss2, f2, eq2) = eval(c2, &mut last_dofs)?;
+        // A trial compression without a reachable equilibrium (a jammed state where Newton
+        // stalls against the collision filter) is retried closer to the last good one.
+        let mut trial = eval(c2, &mut last_dofs);
+        for _ in 0..4 {
+            if !matches!(trial, Err(CurveError::Solve { .. })) {
+                break;
+            }
+            c2 = 0.5 * (c1 + c2);
+            trial = eval(c2, &mut last_dofs);
+        }
+        let (ss2, f2, eq2) = trial?;
         if bracket {
             // Keep the bracket [c0, c1] around the root (Illinois modification of regula falsi).
             if f2.signum() == f1.signum() {
