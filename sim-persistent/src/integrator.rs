@@ -37,8 +37,16 @@
 //! - *Step halving.* A step whose Newton solve fails (far from the minimizer, e.g. the first
 //!   undamped step from a layout that is not at rest) is replaced by two half steps,
 //!   recursively ([`StepSettings::max_halvings`]); the state only changes on success.
+//! - *Wrapping ramp.* The layout starts with unwrapped stitch contacts (ψ ≈ 0; a flat layout
+//!   cannot be wrapped uniformly, see [`crate::forces::wrapping`]). Each wrapping term's rest
+//!   angle therefore moves from the layout's angle ψ_L to its target ψ₀ as
+//!   `ψ_L + s(t/T) (ψ₀ − ψ_L)`, `s(λ) = 3λ² − 2λ³` (smoothstep, no jump in the rest angle's
+//!   rate at either end), `T` = [`StepSettings::wrapping_ramp_time`], evaluated at the end
+//!   of each (sub)step; the wrapping energy is zero at the layout. Without the ramp (`T = 0`)
+//!   every contact would get a quarter-turn torque at once.
 
 use crate::forces::quadratic::Quadratic;
+use crate::forces::wrapping::StitchWrap;
 use crate::forces::{ForceSet, Potential, Term, TermKind, build_terms};
 use crate::layout::Layout;
 use crate::params::YarnParams;
@@ -67,6 +75,11 @@ pub struct StepSettings {
     /// (down to dt/16). A step is also a Newton minimization far from its start when the
     /// layout is not at rest (no rest-shape compensation yet) and damping is off.
     pub max_halvings: usize,
+    /// Duration `T` (s) of the ramp of the stitch-wrapping rest angles from the layout's
+    /// angles to ψ₀ (module documentation); `0` applies ψ₀ from the start. Default 0.1 s
+    /// (100 steps of 1 ms), several periods of the slowest loop modes of a swatch of the
+    /// Table 1 yarns, so that the contacts wrap up quasi-statically.
+    pub wrapping_ramp_time: f64,
 }
 
 impl Default for StepSettings {
@@ -82,6 +95,7 @@ impl Default for StepSettings {
                 ..NewtonSettings::default()
             },
             max_halvings: 4,
+            wrapping_ramp_time: 0.1,
         }
     }
 }
@@ -95,11 +109,13 @@ impl StepSettings {
                 self.dt
             )));
         }
-        for (name, v) in [("α", self.rayleigh_alpha), ("β", self.rayleigh_beta)] {
+        for (name, v) in [
+            ("Rayleigh α", self.rayleigh_alpha),
+            ("Rayleigh β", self.rayleigh_beta),
+            ("wrapping ramp time", self.wrapping_ramp_time),
+        ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(SimError::Invalid(format!(
-                    "Rayleigh {name} must be ≥ 0, got {v}"
-                )));
+                return Err(SimError::Invalid(format!("{name} must be ≥ 0, got {v}")));
             }
         }
         self.newton.validate()?;
@@ -144,6 +160,8 @@ pub struct Simulator {
     n_static: usize,
     segment_dofs: Vec<[usize; 8]>,
     damped: Vec<usize>,
+    /// Wrapping terms under the rest-angle ramp: (term index, layout angle ψ_L, target ψ₀).
+    wrap_ramp: Vec<(usize, f64, f64)>,
     fixed: Vec<bool>,
     state: State,
     solver: Option<NewtonSolver>,
@@ -181,6 +199,17 @@ impl Simulator {
         let state = State::from_layout(&topology, &dofs, layout);
         let mut terms = build_terms(&topology, &dofs, &params, &forces, &state.q);
         let n_static = terms.len();
+        let mut wrap_ramp = Vec::new();
+        for (k, term) in terms.iter_mut().enumerate() {
+            if let Term::Wrapping(wrap, d) = term {
+                let x: [f64; 12] = std::array::from_fn(|i| state.q[d[i]]);
+                let start = StitchWrap::angle(&x);
+                wrap_ramp.push((k, start, wrap.rest_angle));
+                if settings.wrapping_ramp_time > 0.0 {
+                    wrap.rest_angle = start;
+                }
+            }
+        }
         let segment_dofs: Vec<[usize; 8]> = topology
             .segments()
             .map(|(y, i)| {
@@ -220,6 +249,7 @@ impl Simulator {
             n_static,
             segment_dofs,
             damped,
+            wrap_ramp,
             fixed,
             state,
             solver: None,
@@ -248,8 +278,10 @@ impl Simulator {
     /// [`StepSettings::newton`] (iteration limit raised to 200), sets the velocities to zero,
     /// and then updates the friction anchors (Eq. 5) as a step would. For quasi-static
     /// loading (driven clamps). Needs pins that remove the rigid motions; time does not
-    /// advance.
+    /// advance, and the wrapping rest angles are those of the ramp at the current time
+    /// ([`StepSettings::wrapping_ramp_time`]).
     pub fn solve_static(&mut self) -> Result<NewtonReport, SimError> {
+        self.apply_wrapping_ramp(self.time);
         let potential = Potential::new(self.dofs.n_dofs(), self.static_terms().to_vec())
             .map_err(SimError::Invalid)?;
         let settings = NewtonSettings {
@@ -332,8 +364,30 @@ impl Simulator {
         }
     }
 
+    /// Progress `s ∈ [0, 1]` of the wrapping rest-angle ramp at time `t` (s): the smoothstep
+    /// of the module documentation (1 without a ramp).
+    pub fn wrapping_ramp_progress(&self, t: f64) -> f64 {
+        let duration = self.settings.wrapping_ramp_time;
+        if duration <= 0.0 {
+            return 1.0;
+        }
+        let l = (t / duration).clamp(0.0, 1.0);
+        l * l * (3.0 - 2.0 * l)
+    }
+
+    /// Sets every wrapping term's rest angle to its value on the ramp at time `t` (s).
+    fn apply_wrapping_ramp(&mut self, t: f64) {
+        let s = self.wrapping_ramp_progress(t);
+        for &(k, start, target) in &self.wrap_ramp {
+            if let Term::Wrapping(wrap, _) = &mut self.potential.terms[k] {
+                wrap.rest_angle = start + s * (target - start);
+            }
+        }
+    }
+
     /// One backward Euler step of length `h`; commits the state only on success.
     fn solve_step(&mut self, h: f64, report: &mut StepReport) -> Result<(), SimError> {
+        self.apply_wrapping_ramp(self.time + h);
         let (alpha, beta) = (self.settings.rayleigh_alpha, self.settings.rayleigh_beta);
         let qn = self.state.q.clone();
         let q_hat: Vec<f64> = qn

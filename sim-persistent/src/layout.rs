@@ -16,6 +16,8 @@
 //! **Sliding coordinates** start as the arc length of the polyline from the yarn's first node
 //! (m), so every segment starts at its rest length (zero stretch). Bending is not at rest:
 //! rest-shape bending compensation (§4.1, relaxing a characteristic rectangle) is future work.
+//! Nor is stitch wrapping: the stitch contacts start unwrapped (ψ ≈ 0), and the simulator
+//! ramps the wrapping rest angles in ([`crate::forces::wrapping`]).
 
 use crate::topology::{FabricKind, Side, Topology, knit_node};
 use rod::geometry::V3;

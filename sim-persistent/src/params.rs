@@ -30,6 +30,15 @@ pub struct YarnParams {
     /// it. Default `1e-3 N`, the order of the bending forces in a relaxed swatch of the
     /// Table 1 yarns.
     pub friction_max_force: f64,
+    /// Stitch-wrapping stiffness `k_w` of Eq. 2 (N). Table 1: 1e-2 for all three garments,
+    /// labelled Pa; Eq. 2 (`V = ½ k_w L (ψ − ψ₀)²` with `L` in m) needs N for `V` in J, so
+    /// the Table 1 number is read as N (no `π R²` factor: the paper gives none for `k_w`).
+    pub wrapping_stiffness: f64,
+    /// Magnitude of the stitch-wrapping rest angle ψ₀ of Eq. 2 (rad). Default π/2, the
+    /// paper's choice "for a visually realistic wrapping effect" (§4.2). The sign per
+    /// contact (knit or purl, left or right leg) is set by
+    /// [`crate::forces::wrapping::rest_angle_sign`].
+    pub wrapping_rest_angle: f64,
     /// Gravity acceleration (m/s²). Default `(0, −9.81, 0)`: the fabric's y axis (wale
     /// direction of knits) points up.
     pub gravity: V3,
@@ -48,6 +57,8 @@ impl YarnParams {
             stitch_length_stiffness: young_modulus * area,
             friction_stiffness: young_modulus * area / radius,
             friction_max_force: 1e-3,
+            wrapping_stiffness: 1e-2,
+            wrapping_rest_angle: std::f64::consts::FRAC_PI_2,
             gravity: V3::new(0.0, -9.81, 0.0),
         }
     }
@@ -94,11 +105,18 @@ impl YarnParams {
             ("stitch_length_stiffness", self.stitch_length_stiffness),
             ("friction_stiffness", self.friction_stiffness),
             ("friction_max_force", self.friction_max_force),
+            ("wrapping_stiffness", self.wrapping_stiffness),
         ];
         for (name, v) in nonneg {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(format!("{name} must be finite and ≥ 0, got {v}"));
             }
+        }
+        let psi0 = self.wrapping_rest_angle;
+        if !(psi0.is_finite() && (0.0..std::f64::consts::PI).contains(&psi0)) {
+            return Err(format!(
+                "wrapping_rest_angle must be in [0, π) rad, got {psi0}"
+            ));
         }
         if !self.gravity.iter().all(|g| g.is_finite()) {
             return Err("gravity must be finite".into());

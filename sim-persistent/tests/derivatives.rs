@@ -11,7 +11,7 @@ use sim_persistent::forces::friction::AnchoredSpring;
 use sim_persistent::forces::gravity::Gravity;
 use sim_persistent::forces::quadratic::Quadratic;
 use sim_persistent::forces::stitch_length::StitchLength;
-use sim_persistent::forces::wrapping::{StitchWrap, wrap_pairs};
+use sim_persistent::forces::wrapping::{StitchWrap, rest_angle_sign, wrap_pairs};
 use sim_persistent::forces::{ForceSet, Potential, build_terms};
 use sim_persistent::forces::{bending::bending_stencil, stretch::stretch_stencil};
 use sim_persistent::layout::{Layout, LayoutParams};
@@ -151,42 +151,45 @@ fn wrapping_angle_matches_eq13() {
 }
 
 /// The wrapping pairs of the stitch contacts of a knit: the contact's nodes and a neighbour
-/// of each on the right yarn; none at the two side edges, where the upper yarn ends.
+/// of each on the right yarn; at the two side edges, where the upper yarn (one per row)
+/// starts or ends, only the pair that does not need the missing neighbour.
 #[test]
 fn wrapping_pairs_of_a_knit() {
     let topo = Topology::knit(&Chart::rib(4, 3, 1, 1).unwrap());
-    let mut with_pairs = 0;
+    let mut n_pairs = 0;
     for sc in &topo.stitch_contacts {
-        let at_yarn_end =
-            (sc.column == 0 && sc.side == Side::Left) || (sc.column == 3 && sc.side == Side::Right);
-        let Some(pairs) = wrap_pairs(&topo, sc) else {
-            assert!(at_yarn_end, "{sc:?}");
-            continue;
-        };
-        assert!(!at_yarn_end);
-        with_pairs += 1;
+        let yarn_start = sc.column == 0 && sc.side == Side::Left;
+        let yarn_end = sc.column == 3 && sc.side == Side::Right;
+        let [first, second] = wrap_pairs(&topo, sc);
+        assert_eq!(first.is_none(), yarn_start, "{sc:?}");
+        assert_eq!(second.is_none(), yarn_end, "{sc:?}");
         let [q0, q1] = sc.nodes;
         let next = |y: usize, n: usize, o: isize| {
             let i = topo.pass_index(n, y).unwrap();
             topo.yarns[y].passes[i.checked_add_signed(o).unwrap()].node
         };
-        assert_eq!(
-            pairs[0],
-            [q0, q1, next(sc.yarns[0], q0, -1), next(sc.yarns[1], q1, 1)]
-        );
-        assert_eq!(
-            pairs[1],
-            [q1, q0, next(sc.yarns[0], q1, 1), next(sc.yarns[1], q0, -1)]
-        );
+        if let Some(p) = first {
+            assert_eq!(
+                p,
+                [q0, q1, next(sc.yarns[0], q0, -1), next(sc.yarns[1], q1, 1)]
+            );
+        }
+        if let Some(p) = second {
+            assert_eq!(
+                p,
+                [q1, q0, next(sc.yarns[0], q1, 1), next(sc.yarns[1], q0, -1)]
+            );
+        }
         // Four distinct nodes per pair.
-        for p in pairs {
+        for p in [first, second].into_iter().flatten() {
+            n_pairs += 1;
             let mut s = p.to_vec();
             s.sort_unstable();
             s.dedup();
             assert_eq!(s.len(), 4);
         }
     }
-    assert_eq!(with_pairs, topo.stitch_contacts.len() - 2 * 2);
+    assert_eq!(n_pairs, 2 * topo.stitch_contacts.len() - 2 * 2);
 }
 
 #[test]
@@ -225,8 +228,8 @@ fn assembled_potential_of_a_swatch() {
         .collect();
     assert_eq!(
         kinds.len(),
-        5,
-        "gravity, stretch, bending, stitch length, friction: {kinds:?}"
+        6,
+        "gravity, stretch, bending, stitch length, friction, wrapping: {kinds:?}"
     );
     // Deterministic perturbation: 0.1 mm in x, 0.05 mm in u.
     let mut q = rest.q.clone();
@@ -278,4 +281,66 @@ fn assembled_potential_of_a_swatch() {
     eprintln!(
         "assembled swatch: {n} DOFs, gradient rel. error {ge:.2e}, Hessian rel. error {he:.2e}"
     );
+}
+
+/// The sign convention of ψ₀ (`forces::wrapping`, "Sign of ψ₀ per contact"): on the layout
+/// of a 1 × 1 rib (knit and purl columns), fold each pair's segments as in a real knit —
+/// horizontal segments (sinker, head) to the back and vertical ones (legs) to the front by
+/// half a loop width, mirrored for purls — and the signed wrapping angle of every pair of
+/// every interior contact has the sign of [`rest_angle_sign`]; on the flat layout it is
+/// small (below 0.5 rad: 0.33 rad where a sinker joins a knit and a purl column).
+#[test]
+fn folded_stitches_wrap_with_the_rest_angle_sign() {
+    let chart = Chart::rib(4, 4, 1, 1).unwrap();
+    let topo = Topology::knit(&chart);
+    let w = 3e-3;
+    let layout = Layout::new(&topo, &LayoutParams::new(w, 0.75e-3)).unwrap();
+    let mut checked = 0;
+    for sc in &topo.stitch_contacts {
+        let sigma = sc.stitch.sign();
+        for nodes in wrap_pairs(&topo, sc).into_iter().flatten() {
+            let mut x: Vec<Vector3<f64>> = nodes.iter().map(|&n| layout.positions[n]).collect();
+            let flat: [f64; 12] = std::array::from_fn(|k| x[k / 3][k % 3]);
+            let flat_psi = StitchWrap::angle(&flat);
+            assert!(flat_psi.abs() < 0.5, "{sc:?}: flat ψ = {flat_psi}");
+            // Wings: x[2] hangs off x[0], x[3] off x[1].
+            for (wing, base) in [(2, 0), (3, 1)] {
+                let d = x[wing] - x[base];
+                let horizontal = d.x.abs() > d.y.abs();
+                let dz = if horizontal { -sigma } else { sigma } * 0.5 * w;
+                x[wing].z += dz;
+            }
+            let folded: [f64; 12] = std::array::from_fn(|k| x[k / 3][k % 3]);
+            let psi = StitchWrap::angle(&folded);
+            assert!(psi.abs() > 0.3, "{sc:?}: ψ = {psi}");
+            assert_eq!(psi.signum(), rest_angle_sign(sc), "{sc:?}: ψ = {psi}");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 2 * topo.stitch_contacts.len() - 2 * 3);
+}
+
+/// The energy is Eq. 2 times the degenerate-wing weight, `½ k_w L w (ψ − ψ₀)²`, with ψ
+/// from the cross-product form of Eqs. 9–13 (the stencil itself evaluates it through dot and
+/// triple products), and the weight is ≈ 1 for well-opened wings and vanishes as a wing
+/// collapses onto the axis.
+#[test]
+fn wrapping_energy_is_weighted_eq2() {
+    let s = StitchWrap {
+        stiffness: 1e-2,
+        rest_length: 0.7e-3,
+        rest_angle: 1.2,
+    };
+    let x: [f64; 12] = [
+        0.1, -0.2, 0.05, 0.3, 0.4, 0.9, -0.5, 0.2, 0.1, 0.7, -0.1, 1.2,
+    ];
+    let q = SVector::<f64, 12>::from_column_slice(&x);
+    let psi = StitchWrap::angle(&x);
+    let expected = 0.5 * 1e-2 * 0.7e-3 * StitchWrap::weight(&x) * (psi - 1.2).powi(2);
+    assert!((rod::Stencil::energy(&s, &q) - expected).abs() <= 1e-14 * expected);
+    // Perpendicular wings: weight 1; a wing along the axis: weight 0.
+    let open: [f64; 12] = [0., 0., 0., 0., 0., 1., 1., 0., 0., 0., 1., 1.];
+    assert!((StitchWrap::weight(&open) - 1.0).abs() < 1e-14);
+    let collapsed: [f64; 12] = [0., 0., 0., 0., 0., 1., 0., 0., -1., 0., 1., 1.];
+    assert!(StitchWrap::weight(&collapsed).abs() < 1e-14);
 }

@@ -137,8 +137,13 @@ fn free_swatch_drift(dt: f64) -> (f64, f64, f64) {
     };
     settings.newton.gradient_rel_tol = 1e-12;
     settings.newton.gradient_abs_tol = 1e-14;
+    // Without wrapping: its ramped rest angle makes the potential time dependent, and with
+    // the full rest angle from t = 0 (no ramp) the quarter-turn torque drives sliding at
+    // ≈ 0.5 m/s, where the drift measured 39 % (100 µs) and 20 % (10 µs): not first order,
+    // an open question (dropped velocity-quadratic terms? the degenerate-wing weight?).
     let forces = ForceSet {
         friction: false,
+        wrapping: false,
         ..ForceSet::default()
     };
     let mut sim = simulator(&chart, params, forces, settings);

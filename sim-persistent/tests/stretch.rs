@@ -1,7 +1,9 @@
 //! Quasi-static stretch of a knit between driven clamps: the clamp forces balance, the force
 //! grows monotonically with the stretch, and the response changes regime from yarn bending
 //! (loops straighten) to yarn stretch — the second and third regimes of seed 000 Fig. 11
-//! (the first, stitch wrapping, needs the wrapping term, which is not assembled yet).
+//! (the first, stitch wrapping, belongs to the rib-stretch figure, which is not done yet; this
+//! test leaves the wrapping term out, so that the static solves start from the layout, where
+//! the contacts are not wrapped yet, see `sim_persistent::forces::wrapping`).
 
 use rod::geometry::V3;
 use sim_persistent::chart::Chart;
@@ -40,14 +42,11 @@ fn wale_stretch_goes_from_bending_to_stretching() {
     let mut params = YarnParams::sweater();
     params.gravity *= 0.0;
     let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).unwrap();
-    let mut sim = Simulator::new(
-        topo,
-        &layout,
-        params,
-        ForceSet::default(),
-        StepSettings::default(),
-    )
-    .unwrap();
+    let forces = ForceSet {
+        wrapping: false,
+        ..ForceSet::default()
+    };
+    let mut sim = Simulator::new(topo, &layout, params, forces, StepSettings::default()).unwrap();
     let (bottom, top) = (boundary(w, 0), boundary(w, h));
     sim.pin_nodes(&bottom).unwrap();
     sim.pin_nodes(&top).unwrap();

@@ -187,7 +187,8 @@ fn layout_starts_unstretched_below_jamming_with_knit_purl_signs() {
 }
 
 /// Only the terms a scene needs are built: no gravity terms without gravity, no friction
-/// springs when friction is off, no stitch-length terms for a weave (no stitch contacts).
+/// springs when friction is off, no wrapping when it is off, no stitch-length or wrapping
+/// terms for a weave (no stitch contacts).
 #[test]
 fn only_needed_terms_are_built() {
     use sim_persistent::forces::Term;
@@ -215,6 +216,20 @@ fn only_needed_terms_are_built() {
         .filter(|p| !p.sliding_pinned)
         .count();
     assert_eq!(count(&all, TermKind::Friction), free_sliding);
+    // Stitch wrapping: two pairs per stitch contact, less one pair at each contact where a
+    // row's yarn starts or ends (column 0 left legs, last column right legs).
+    let edge_contacts = 2 * (chart.height() - 1);
+    assert_eq!(
+        count(&all, TermKind::Wrapping),
+        2 * topo.stitch_contacts.len() - edge_contacts
+    );
+    let unwrapped = ForceSet {
+        wrapping: false,
+        ..ForceSet::default()
+    };
+    let no_wrap = build_terms(&topo, &dofs, &params, &unwrapped, &q);
+    assert_eq!(count(&no_wrap, TermKind::Wrapping), 0);
+    assert_eq!(no_wrap.len(), all.len() - count(&all, TermKind::Wrapping));
     params.gravity *= 0.0;
     let forces = ForceSet {
         friction: false,
@@ -236,4 +251,6 @@ fn only_needed_terms_are_built() {
         &wq,
     );
     assert_eq!(count(&terms, TermKind::StitchLength), 0);
+    // Never wrapping for a weave, even with the term switched on.
+    assert_eq!(count(&terms, TermKind::Wrapping), 0);
 }

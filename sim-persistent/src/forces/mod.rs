@@ -11,10 +11,10 @@
 //! | stitch-contact length | [`stitch_length`] | `(u₀, u₁)` per yarn and stitch contact | seed 000 Eq. 6 |
 //! | sliding friction (anchored springs) | [`friction`] | `u` per free sliding coordinate | seed 000 Eq. 5 |
 //! | compression estimation (solvers only, not used by friction yet) | [`compression`] | — | seed 000 Eqs. 3–4 |
-//! | stitch wrapping (stencil only, not assembled yet) | [`wrapping`] | `(x₀, x₁, x₄, x₃)` per pair of opposite segments | seed 000 Eq. 2, Eqs. 7–13 |
+//! | stitch wrapping (knits only) | [`wrapping`] | `(x₀, x₁, x₄, x₃)` per pair of opposite segments | seed 000 Eq. 2, Eqs. 7–13 |
 //! | inertia, Rayleigh damping | [`quadratic`] | as the term they belong to | §4, [`crate::integrator`] |
 //!
-//! Not yet implemented: assembling stitch wrapping (see [`wrapping`]); compression
+//! Not yet implemented: compression
 //! estimation at the nodes of a running simulation (see [`compression`]; friction uses a
 //! constant slip force meanwhile); friction of parallel stacked yarns; contact between
 //! adjacent loops; crossing shear/jamming of weaves.
@@ -30,7 +30,7 @@ pub mod wrapping;
 
 use crate::params::YarnParams;
 use crate::state::{DofMap, gather};
-use crate::topology::Topology;
+use crate::topology::{FabricKind, Topology};
 use friction::AnchoredSpring;
 use gravity::Gravity;
 use quadratic::Quadratic;
@@ -38,6 +38,7 @@ use rod::Stencil;
 use rod::bending::AngleBending;
 use rod::stretch::SlidingSegment;
 use stitch_length::StitchLength;
+use wrapping::StitchWrap;
 
 /// Which force terms a model assembles (only what the scene needs is built).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -52,6 +53,9 @@ pub struct ForceSet {
     pub stitch_length: bool,
     /// Sliding friction with anchored springs (Eq. 5).
     pub friction: bool,
+    /// Stitch wrapping (Eq. 2). Only knits have stitch contacts, so a weave never gets
+    /// wrapping terms whatever this says.
+    pub wrapping: bool,
 }
 
 impl Default for ForceSet {
@@ -63,6 +67,7 @@ impl Default for ForceSet {
             bending: true,
             stitch_length: true,
             friction: true,
+            wrapping: true,
         }
     }
 }
@@ -80,6 +85,8 @@ pub enum TermKind {
     StitchLength,
     /// Sliding friction (anchored springs).
     Friction,
+    /// Stitch wrapping.
+    Wrapping,
     /// Inertia (+ mass damping) of an implicit step.
     Inertia,
     /// Stiffness (Rayleigh β) damping of an implicit step.
@@ -99,6 +106,8 @@ pub enum Term {
     StitchLength(StitchLength, [usize; 2]),
     /// Friction spring of one sliding coordinate.
     Friction(AnchoredSpring, [usize; 1]),
+    /// Stitch wrapping of one pair of opposite segments (positions of `q₀, q₁, q₄, q₃`).
+    Wrapping(StitchWrap, [usize; 12]),
     /// Inertia of a segment (boxed: the per-step matrices dwarf the other variants).
     Inertia(Box<Quadratic<8>>, [usize; 8]),
     /// Stiffness damping of a 1-DOF term.
@@ -120,6 +129,7 @@ macro_rules! with_stencil {
             Term::Bending($s, $d) => $body,
             Term::StitchLength($s, $d) => $body,
             Term::Friction($s, $d) => $body,
+            Term::Wrapping($s, $d) => $body,
             Term::Inertia($s, $d) => $body,
             Term::Damping1($s, $d) => $body,
             Term::Damping2($s, $d) => $body,
@@ -143,6 +153,7 @@ impl Term {
             Term::Bending(..) => TermKind::Bending,
             Term::StitchLength(..) => TermKind::StitchLength,
             Term::Friction(..) => TermKind::Friction,
+            Term::Wrapping(..) => TermKind::Wrapping,
             Term::Inertia(..) => TermKind::Inertia,
             Term::Damping1(..) | Term::Damping2(..) | Term::Damping8(..) | Term::Damping12(..) => {
                 TermKind::Damping
@@ -182,6 +193,9 @@ impl Term {
             (Term::Bending(s, d), Term::Damping12(f, e)) if d == e => {
                 fill(s, d, q, factor, true, f)
             }
+            (Term::Wrapping(s, d), Term::Damping12(f, e)) if d == e => {
+                fill(s, d, q, factor, true, f)
+            }
             (Term::StitchLength(s, d), Term::Damping2(f, e)) if d == e => {
                 fill(s, d, q, factor, false, f)
             }
@@ -198,7 +212,9 @@ impl Term {
     pub fn damping_form(&self, q: &[f64], factor: f64) -> Option<Term> {
         let mut target = match self {
             Term::Stretch(_, d) => Term::Damping8(Box::new(Quadratic::zero()), *d),
-            Term::Bending(_, d) => Term::Damping12(Box::new(Quadratic::zero()), *d),
+            Term::Bending(_, d) | Term::Wrapping(_, d) => {
+                Term::Damping12(Box::new(Quadratic::zero()), *d)
+            }
             Term::StitchLength(_, d) => Term::Damping2(Box::new(Quadratic::zero()), *d),
             Term::Friction(_, d) => Term::Damping1(Box::new(Quadratic::zero()), *d),
             _ => return None,
@@ -289,9 +305,11 @@ impl solver::Problem for Potential {
 }
 
 /// The elastic and gravity terms of a fabric (everything but the per-step inertia and
-/// damping), selected by `forces`. Rest lengths of stitch contacts (Eq. 6) and the initial
-/// friction anchors (Eq. 5; one per free sliding coordinate of a node with ≥ 2 yarns) are
-/// taken from the coordinates `q_rest` (normally the initial layout).
+/// damping), selected by `forces`. Rest lengths of stitch contacts (Eqs. 2 and 6) and the
+/// initial friction anchors (Eq. 5; one per free sliding coordinate of a node with ≥ 2 yarns) are
+/// taken from the coordinates `q_rest` (normally the initial layout). Wrapping terms (knits
+/// only) get their full rest angle `± ψ₀` ([`wrapping::rest_angle_sign`]); the simulator
+/// ramps it in ([`crate::integrator::StepSettings::wrapping_ramp_time`]).
 pub fn build_terms(
     topology: &Topology,
     dofs: &DofMap,
@@ -349,6 +367,25 @@ pub fn build_terms(
                     StitchLength {
                         stiffness: params.stitch_length_stiffness,
                         rest_length,
+                    },
+                    d,
+                ));
+            }
+        }
+    }
+    let knit = matches!(topology.kind, FabricKind::Knit(_));
+    if forces.wrapping && knit && params.wrapping_stiffness > 0.0 {
+        let position = |n: usize| dofs.position(q_rest, n);
+        for sc in &topology.stitch_contacts {
+            let rest_angle = wrapping::rest_angle_sign(sc) * params.wrapping_rest_angle;
+            let rest_length = (position(sc.nodes[1]) - position(sc.nodes[0])).norm();
+            for nodes in wrapping::wrap_pairs(topology, sc).into_iter().flatten() {
+                let d: [usize; 12] = std::array::from_fn(|k| dofs.x(nodes[k / 3]) + k % 3);
+                terms.push(Term::Wrapping(
+                    StitchWrap {
+                        stiffness: params.wrapping_stiffness,
+                        rest_length,
+                        rest_angle,
                     },
                     d,
                 ));
