@@ -72,6 +72,8 @@ pub enum Style {
     Line,
     /// Filled circles only.
     Markers,
+    /// Filled triangles only (a second marker shape, to tell two families of points apart).
+    Triangles,
     /// Solid line with filled circles at the data points.
     LineMarkers,
     /// Dashed line, for reference curves (closed form, paper data, slopes).
@@ -108,6 +110,14 @@ impl Series {
     /// Markers only (e.g. measured data).
     pub fn markers(name: impl Into<String>, points: impl IntoIterator<Item = (f64, f64)>) -> Self {
         Self::new(name, points, Style::Markers)
+    }
+
+    /// Triangle markers only (a second family of measured data next to [`Series::markers`]).
+    pub fn triangles(
+        name: impl Into<String>,
+        points: impl IntoIterator<Item = (f64, f64)>,
+    ) -> Self {
+        Self::new(name, points, Style::Triangles)
     }
 
     /// A solid line with markers at the data points.
@@ -402,6 +412,9 @@ where
             Style::Markers => cc
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 4, dot)))?
                 .legend(move |(x, y)| Circle::new((x + 12, y), 4, dot)),
+            Style::Triangles => cc
+                .draw_series(pts.iter().map(|&p| TriangleMarker::new(p, 6, dot)))?
+                .legend(move |(x, y)| TriangleMarker::new((x + 12, y), 6, dot)),
             Style::LineMarkers => {
                 cc.draw_series(pts.iter().map(|&p| Circle::new(p, 4, dot)))?;
                 cc.draw_series(LineSeries::new(pts, line))?
@@ -536,7 +549,7 @@ fn legend_position(chart: &LineChart, x: &Range<f64>, y: &Range<f64>) -> SeriesL
         for &(fx, fy) in &pts {
             count(fx, fy);
         }
-        if s.style != Style::Markers {
+        if !matches!(s.style, Style::Markers | Style::Triangles) {
             for w in pts.windows(2) {
                 for t in 1..10 {
                     let t = f64::from(t) / 10.0;

@@ -13,7 +13,7 @@ use std::sync::{Arc, Mutex};
 use anyhow::{Context, anyhow};
 use deform_runtime::deform::YarnOutput;
 use deform_runtime::obj::ObjMesh;
-use deform_runtime::{Deformer, Real, synthetic};
+use deform_runtime::{Deformer, FrameStats, Real, synthetic};
 use sim_periodic::database::{
     DatabaseSettings, Generated, generate, relax_reference, uniform_axis,
 };
@@ -212,13 +212,24 @@ pub fn frame_seconds<T: Real>(
     positions: &[[f64; 3]],
     frames: usize,
 ) -> anyhow::Result<(f64, f64)> {
+    best_frame_seconds(d, frames, |d| d.frame(positions))
+}
+
+/// Best-of-`frames` per-frame times `(mesh stage, per-vertex stage)` (s) of `frame` run on
+/// `d` (after one warm-up call), with static-frame skipping off; e.g.
+/// `|d| d.frame_explicit(positions, &bending)` for the explicit bending model.
+pub fn best_frame_seconds<T: Real>(
+    d: &mut Deformer<T>,
+    frames: usize,
+    mut frame: impl FnMut(&mut Deformer<T>) -> deform_runtime::Result<FrameStats>,
+) -> anyhow::Result<(f64, f64)> {
     let mut options = *d.options();
     options.skip_static = false;
     d.set_options(options)?;
-    d.frame(positions)?;
+    frame(d)?;
     let mut best = (f64::INFINITY, f64::INFINITY);
     for _ in 0..frames.max(1) {
-        let s = d.frame(positions)?;
+        let s = frame(d)?;
         if s.mesh_seconds + s.vertex_seconds < best.0 + best.1 {
             best = (s.mesh_seconds, s.vertex_seconds);
         }

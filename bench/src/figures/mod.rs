@@ -3,6 +3,7 @@
 //! Each module exposes `pub fn spec() -> FigureSpec`; list it in
 //! [`crate::figure::all_figures`].
 
+pub mod deform_bending_db;
 pub mod deform_bending_models;
 pub mod deform_compression_clamping;
 pub mod deform_naive_vs_mechanics;
