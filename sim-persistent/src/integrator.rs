@@ -146,6 +146,15 @@ pub struct StepReport {
     pub slipped: usize,
     /// The Newton report of the last successful substep.
     pub last_newton: Option<NewtonReport>,
+    /// Wall time (s) spent preparing the backward Euler solves, summed over all attempted
+    /// substeps (failed ones included): rest-angle ramp, lagged mass matrices, Rayleigh
+    /// damping forms, `q̂`, and the one-off sparsity pattern and symbolic factorization when
+    /// the Newton solver is (re)built. Timing only; it changes nothing in the step.
+    pub setup_seconds: f64,
+    /// Wall time (s) spent in the Newton minimizations (assembly, line searches, sparse
+    /// Cholesky factorizations and solves), summed over all attempted substeps (failed
+    /// ones included).
+    pub newton_seconds: f64,
 }
 
 /// A fabric under implicit Euler time stepping (see the module documentation).
@@ -345,6 +354,8 @@ impl Simulator {
             substeps: 0,
             slipped: 0,
             last_newton: None,
+            setup_seconds: 0.0,
+            newton_seconds: 0.0,
         };
         self.advance(self.settings.dt, 0, &mut report)?;
         Ok(report)
@@ -387,6 +398,7 @@ impl Simulator {
 
     /// One backward Euler step of length `h`; commits the state only on success.
     fn solve_step(&mut self, h: f64, report: &mut StepReport) -> Result<(), SimError> {
+        let setup_start = std::time::Instant::now();
         self.apply_wrapping_ramp(self.time + h);
         let (alpha, beta) = (self.settings.rayleigh_alpha, self.settings.rayleigh_beta);
         let qn = self.state.q.clone();
@@ -418,7 +430,11 @@ impl Simulator {
         }
         let solver = self.solver.as_mut().expect("built above");
         let mut q = qn.clone();
-        let newton = solver.minimize(&self.potential, &mut q, &self.settings.newton)?;
+        let newton_start = std::time::Instant::now();
+        report.setup_seconds += (newton_start - setup_start).as_secs_f64();
+        let newton = solver.minimize(&self.potential, &mut q, &self.settings.newton);
+        report.newton_seconds += newton_start.elapsed().as_secs_f64();
+        let newton = newton?;
         for (i, v) in self.state.v.iter_mut().enumerate() {
             *v = if self.fixed[i] {
                 0.0
@@ -462,6 +478,13 @@ impl Simulator {
     /// energy shares of the rib-stretch figure).
     pub fn energy_by_kind(&self) -> Vec<(TermKind, f64)> {
         crate::forces::energy_by_kind(self.static_terms(), &self.state.q)
+    }
+
+    /// The potential of the backward Euler step: the elastic and gravity terms followed by
+    /// the inertia and damping terms of the last (sub)step (for inspection and timing of
+    /// the assembly, e.g. with [`solver::Assembler`]).
+    pub fn step_potential(&self) -> &Potential {
+        &self.potential
     }
 
     /// The elastic and gravity terms (without the per-step inertia and damping).

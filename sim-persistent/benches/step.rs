@@ -1,0 +1,79 @@
+//! One implicit (backward Euler) step of a hanging knit swatch against its size, with the
+//! throughput in DoF-steps (criterion `Throughput::Elements(n_dofs)`; issue 6's benchmark,
+//! the paper's reference is ≈ 0.38 M DoF-steps/s at 1.1 M DoFs).
+//!
+//! `cargo bench -p sim-persistent --bench step` (add `-- --quick` for a short run). Setup (not
+//! timed): a garter or stockinette swatch of the Table 1 sweater yarn (loop width 3 mm),
+//! Rayleigh α = 10 /s, β = 0.01 s, every implemented force term, gravity, the bind-off edge
+//! pinned, dt = 1 ms, and one warm-up step (which builds the sparsity pattern and the
+//! symbolic factorization). One iteration is one further step of the same, evolving, swatch.
+//! `examples/scaling.rs` covers larger sizes (≥ 1e5 DoFs) and splits a step into its
+//! phases; sizes here stop at 48 × 48 (≈ 3 s a step) to keep a full run short.
+
+#![allow(missing_docs)] // criterion_group! generates undocumented items
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use sim_persistent::chart::Chart;
+use sim_persistent::forces::ForceSet;
+use sim_persistent::integrator::{Simulator, StepSettings};
+use sim_persistent::layout::{Layout, LayoutParams};
+use sim_persistent::params::YarnParams;
+use sim_persistent::topology::{Side, Topology, knit_node};
+use std::time::Duration;
+
+/// A `chart` swatch hanging from its pinned bind-off edge, after one warm-up step.
+fn hanging(chart: &Chart) -> Simulator {
+    let (w, h) = (chart.width(), chart.height());
+    let params = YarnParams::sweater();
+    let topo = Topology::knit(chart);
+    let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).expect("layout");
+    let settings = StepSettings {
+        rayleigh_alpha: 10.0,
+        rayleigh_beta: 0.01,
+        ..StepSettings::default()
+    };
+    let mut sim =
+        Simulator::new(topo, &layout, params, ForceSet::default(), settings).expect("simulator");
+    let pins: Vec<usize> = (0..w)
+        .flat_map(|c| {
+            [Side::Left, Side::Right]
+                .into_iter()
+                .flat_map(move |s| [knit_node(w, h, c, s, false), knit_node(w, h, c, s, true)])
+        })
+        .collect();
+    sim.pin_nodes(&pins).expect("pins");
+    sim.step().expect("warm-up step");
+    sim
+}
+
+fn bench(c: &mut Criterion) {
+    let mut group = c.benchmark_group("implicit step, dt = 1 ms");
+    group.sample_size(10);
+    group.warm_up_time(Duration::from_millis(500));
+    group.measurement_time(Duration::from_secs(3));
+    for (pattern, n) in [
+        ("garter", 8),
+        ("garter", 16),
+        ("garter", 32),
+        ("garter", 48),
+        ("stockinette", 16),
+        ("stockinette", 32),
+    ] {
+        let chart = match pattern {
+            "garter" => Chart::garter(n, n),
+            _ => Chart::stockinette(n, n),
+        }
+        .expect("valid size");
+        let mut sim = hanging(&chart);
+        let n_dofs = sim.dofs().n_dofs();
+        group.throughput(Throughput::Elements(n_dofs as u64));
+        group.bench_function(
+            BenchmarkId::new(pattern, format!("{n}x{n} ({n_dofs} DoFs)")),
+            |b| b.iter(|| sim.step().expect("step converges")),
+        );
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
