@@ -125,6 +125,18 @@ fn repeated(tile: &Tile, k: i32) -> Tile {
     big
 }
 
+/// The DOFs of `repeated(tile, k)` that replicate the small tile's `dofs` (fluctuations, then
+/// twists) in every copy; positions F X + ũ are then the periodic copies.
+fn replicated_dofs(dofs: &[f64], n: usize, k: usize) -> Vec<f64> {
+    let copies = k * k;
+    let mut x = vec![0.0; 4 * copies * n];
+    for c in 0..copies {
+        x[3 * n * c..3 * n * (c + 1)].copy_from_slice(&dofs[..3 * n]);
+        x[3 * n * copies + n * c..3 * n * copies + n * (c + 1)].copy_from_slice(&dofs[3 * n..]);
+    }
+    x
+}
+
 #[test]
 fn a_3x3_copy_has_the_same_energy_density_and_is_in_equilibrium() {
     let tile = stockinette();
@@ -137,13 +149,7 @@ fn a_3x3_copy_has_the_same_energy_density_and_is_in_equilibrium() {
     let eq =
         solve_equilibrium(&tile, &model, coarse, None, &EquilibriumSettings::default()).unwrap();
     let big = repeated(&tile, 3);
-    let n = tile.n_vertices();
-    // Replicate the fluctuations and twists; positions F X + ũ are then the periodic copies.
-    let mut x = vec![0.0; 4 * 9 * n];
-    for c in 0..9 {
-        x[3 * n * c..3 * n * (c + 1)].copy_from_slice(&eq.dofs[..3 * n]);
-        x[27 * n + n * c..27 * n + n * (c + 1)].copy_from_slice(&eq.dofs[3 * n..]);
-    }
+    let x = replicated_dofs(&eq.dofs, tile.n_vertices(), 3);
     let pairs = PeriodicTile::find_pairs(&big, &model, &coarse, &x, 1.5).unwrap();
     let problem = PeriodicTile::new(&big, model, coarse, pairs).unwrap();
     let mut asm = Assembler::new(&problem).unwrap();
@@ -201,11 +207,7 @@ fn a_clamped_3x3_copy_has_the_tile_energy_density_and_forces() {
         solve_equilibrium(&tile, &model, coarse, None, &EquilibriumSettings::default()).unwrap();
     let big = repeated(&tile, 3);
     let n = tile.n_vertices();
-    let mut x = vec![0.0; 4 * 9 * n];
-    for c in 0..9 {
-        x[3 * n * c..3 * n * (c + 1)].copy_from_slice(&eq.dofs[..3 * n]);
-        x[27 * n + n * c..27 * n + n * (c + 1)].copy_from_slice(&eq.dofs[3 * n..]);
-    }
+    let mut x = replicated_dofs(&eq.dofs, n, 3);
     let periodic = x.clone();
     const CENTRE: usize = 4; // copy (1, 1)
     let centre_position = |v: usize, c: usize| 3 * (v + CENTRE * n) + c;
