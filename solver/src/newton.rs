@@ -410,10 +410,12 @@ fn line_search<P: Problem + ?Sized>(
     if !descent && !negligible {
         return Ok(LineSearch::Failed { backtracks: 0 });
     }
-    let mut alpha = problem.max_step(x, dx).min(1.0);
-    if alpha.is_nan() || alpha <= 0.0 {
+    // Checked before `min`, which would turn a NaN bound into 1.
+    let alpha_max = problem.max_step(x, dx);
+    if alpha_max.is_nan() || alpha_max <= 0.0 {
         return Ok(LineSearch::Failed { backtracks: 0 });
     }
+    let mut alpha = alpha_max.min(1.0);
     for backtracks in 0..=settings.max_backtracks {
         for ((t, &xi), &di) in x_trial.iter_mut().zip(x).zip(dx) {
             *t = if di != 0.0 { xi + alpha * di } else { xi };

@@ -269,16 +269,20 @@ fn line_search_starts_within_the_problem_step_filter() {
     // Travelling 9 in moves of at most 0.5 takes at least 18 steps.
     assert!(report.iterations >= 18, "{}", report.iterations);
 
-    // A filter that admits no step at all is a line-search failure, not a hang.
-    let mut x = vec![10.0];
-    let err = minimize(
-        &Filtered(LogBarrier([0]), 0.0),
-        &mut x,
-        &[false],
-        &NewtonSettings::default(),
-    )
-    .unwrap_err();
-    assert!(matches!(err, SolveError::LineSearchFailed(_)), "{err}");
+    // A filter that admits no step at all (or answers NaN) is a line-search failure, not a
+    // hang and not an unfiltered step.
+    for bound in [0.0, f64::NAN] {
+        let mut x = vec![10.0];
+        let err = minimize(
+            &Filtered(LogBarrier([0]), bound),
+            &mut x,
+            &[false],
+            &NewtonSettings::default(),
+        )
+        .unwrap_err();
+        assert!(matches!(err, SolveError::LineSearchFailed(_)), "{err}");
+        assert_eq!(x, [10.0]);
+    }
 }
 
 #[test]
