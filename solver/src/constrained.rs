@@ -39,7 +39,9 @@ use faer::sparse::SparseColMat;
 use crate::SolveError;
 use crate::assembly::{Assembler, Problem, check_len};
 use crate::linalg::SparseLu;
-use crate::newton::{NewtonReport, NewtonSettings, NewtonSystem, inf_norm, run_newton};
+use crate::newton::{
+    LinearSolver, NewtonReport, NewtonSettings, NewtonSystem, SystemFailure, inf_norm, run_newton,
+};
 use crate::pattern::build_pattern;
 
 /// Linear equality constraints `C x = d`, with `C` (`m × n_dofs`) given as `(row, col, value)`
@@ -364,7 +366,7 @@ impl NewtonSystem for KktSystem {
         x: &[f64],
         mu: f64,
         dx: &mut [f64],
-    ) -> Result<f64, String> {
+    ) -> Result<f64, SystemFailure> {
         let n = self.n;
         self.fill(Some(asm.hessian().val()), mu);
         self.lu.factorize(self.kkt.as_ref())?;
@@ -421,6 +423,13 @@ impl ConstrainedNewtonSolver {
         settings: &NewtonSettings,
     ) -> Result<NewtonReport, SolveError> {
         settings.validate()?;
+        if settings.linear_solver != LinearSolver::Cholesky {
+            return Err(SolveError::InvalidSettings(
+                "constrained Newton solves its KKT system by sparse LU; choose \
+                 LinearSolver::Cholesky (the default)"
+                    .into(),
+            ));
+        }
         check_len("x", self.assembler.n_dofs(), x.len())?;
         let v0 = self.system.constraints.violation_unchecked(x);
         if !self.system.feasible(x, v0, settings) {

@@ -6,7 +6,8 @@
 //! | module | contents |
 //! |---|---|
 //! | [`assembly`] | the [`Problem`] trait; [`Assembler`]: fixed-pattern, parallel, deterministic sparse assembly of energy, gradient and (optionally SPD-projected) Hessian |
-//! | [`newton`] | [`minimize`] / [`NewtonSolver`]: Newton with backtracking line search, Dirichlet DOFs, adaptive diagonal regularization, sparse Cholesky with reused symbolic analysis |
+//! | [`newton`] | [`minimize`] / [`NewtonSolver`]: Newton with backtracking line search, Dirichlet DOFs, adaptive diagonal regularization, sparse Cholesky with reused symbolic analysis or preconditioned CG ([`LinearSolver`]); optional fixed-iteration mode (linearized steps) |
+//! | [`pcg`] | [`Pcg`]: preconditioned conjugate gradients (Jacobi or IC(0)) on the assembled lower-triangle Hessian, deterministic parallel matrix–vector products |
 //! | [`constrained`] | [`minimize_constrained`] / [`ConstrainedNewtonSolver`]: Newton under linear equality constraints `Cx = d` via the KKT system and sparse LU |
 //!
 //! Design rules:
@@ -15,7 +16,8 @@
 //!   into the CSC value array and the symbolic factorization are computed once per solver and
 //!   reused for every iteration (and every later solve with the same stencils).
 //! - **Determinism.** Stencils are evaluated in parallel into private slots and summed
-//!   serially in stencil order; the sparse factorizations run sequentially. Results are
+//!   serially in stencil order; the sparse factorizations (and the IC(0) preconditioner)
+//!   run sequentially, and the conjugate gradients sum in fixed chunks. Results are
 //!   bit-identical for any rayon thread count.
 //! - **Loud failure.** Bad input is an `Err`, never a panic; a minimization that does not
 //!   converge returns an `Err` carrying its [`NewtonReport`].
@@ -68,6 +70,7 @@ mod error;
 mod linalg;
 pub mod newton;
 mod pattern;
+pub mod pcg;
 
 pub use assembly::{
     Assembled, Assembler, Problem, eval_rod_stencil, eval_rod_stencil_energy_offset,
@@ -75,4 +78,7 @@ pub use assembly::{
 };
 pub use constrained::{ConstrainedNewtonSolver, LinearConstraints, minimize_constrained};
 pub use error::SolveError;
-pub use newton::{NewtonReport, NewtonSettings, NewtonSolver, Termination, minimize};
+pub use newton::{
+    LinearSolver, NewtonReport, NewtonSettings, NewtonSolver, NewtonTimings, Termination, minimize,
+};
+pub use pcg::{Pcg, PcgFailure, PcgReport, PcgSettings, Preconditioner};

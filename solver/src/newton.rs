@@ -39,12 +39,41 @@
 //! Newton step satisfies `‖Δx‖∞ ≤ step_tol`. Everything else (iteration limit, line-search
 //! failure, non-finite values, factorization failure) is an `Err` that carries the report.
 //!
-//! The symbolic factorization is computed once per [`NewtonSolver`]; all numeric work runs
-//! sequentially except the stencil evaluations, so results do not depend on the thread count.
+//! **Linear solver** ([`NewtonSettings::linear_solver`]). The default is the sparse
+//! Cholesky factorization above; [`LinearSolver::ConjugateGradient`] instead solves the same
+//! shifted system with Jacobi-preconditioned conjugate gradients ([`crate::pcg`]) to a
+//! relative residual tolerance. A CG solve that meets a non-positive curvature is treated like
+//! a failed factorization (the shift escalates); one that reaches its iteration cap is a hard
+//! [`Termination::FactorizationFailed`] whose detail names the CG residual. The CG iteration
+//! count of each accepted step is reported in [`NewtonReport::linear_iterations`].
+//!
+//! **Fixed-iteration mode.** With `line_search = false` every step is taken at full length
+//! `α = min(1, α_max)` without the Armijo test, and with `accept_iteration_limit = true`
+//! reaching `max_iterations` ends the run successfully with
+//! [`Termination::IterationLimit`] (not converged; the residual at the final iterate is
+//! still computed and reported). `max_iterations = 1` with both gives one linearized Newton
+//! step, e.g. the linearized implicit Euler of Baraff & Witkin (1998).
+//!
+//! The symbolic factorization is computed once per [`NewtonSolver`] (on the first Cholesky
+//! solve); all numeric work other than the stencil evaluations and the conjugate gradients
+//! runs sequentially, and the conjugate gradients sum in fixed chunks, so results do not
+//! depend on the thread count.
 
 use crate::SolveError;
 use crate::assembly::{Assembler, Problem, check_len};
 use crate::linalg::SparseLlt;
+use crate::pcg::{Pcg, PcgFailure, PcgSettings};
+
+/// How the Newton system `(H_ff + μ I) Δx_f = −g_f` is solved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LinearSolver {
+    /// Sparse Cholesky `L Lᵀ` with AMD ordering (faer, supernodal); the symbolic analysis is
+    /// computed once per solver and reused. Exact up to rounding.
+    Cholesky,
+    /// Jacobi-preconditioned conjugate gradients ([`crate::pcg`]) to the given relative
+    /// residual tolerance and iteration cap. Unconstrained solves only.
+    ConjugateGradient(PcgSettings),
+}
 
 /// Parameters of [`minimize`] and [`crate::minimize_constrained`]. `Default` gives the values
 /// documented on each field.
@@ -83,6 +112,14 @@ pub struct NewtonSettings {
     /// `‖Cx − d‖∞ ≤ constraint_tol · (‖C‖∞ ‖x‖∞ + ‖d‖∞)` (a rounding-level test in the units
     /// of `d`), and convergence requires feasibility. Default `1e-12`.
     pub constraint_tol: f64,
+    /// Linear solver of the Newton system. Default [`LinearSolver::Cholesky`].
+    pub linear_solver: LinearSolver,
+    /// Backtracking line search (Armijo). With `false`, every step is taken at
+    /// `α = min(1, α_max)` without evaluating the energy along it. Default `true`.
+    pub line_search: bool,
+    /// When `true`, reaching `max_iterations` without convergence ends the run with `Ok`
+    /// and [`Termination::IterationLimit`] instead of an error. Default `false`.
+    pub accept_iteration_limit: bool,
 }
 
 impl Default for NewtonSettings {
@@ -101,6 +138,9 @@ impl Default for NewtonSettings {
             regularization_growth: 10.0,
             max_regularization_attempts: 14,
             constraint_tol: 1e-12,
+            linear_solver: LinearSolver::Cholesky,
+            line_search: true,
+            accept_iteration_limit: false,
         }
     }
 }
@@ -131,6 +171,9 @@ impl NewtonSettings {
         if !nonneg(self.constraint_tol) {
             return bad("constraint_tol must be finite and ≥ 0");
         }
+        if let LinearSolver::ConjugateGradient(pcg) = &self.linear_solver {
+            pcg.validate()?;
+        }
         Ok(())
     }
 }
@@ -148,8 +191,12 @@ pub enum Termination {
     LineSearchFailed,
     /// Failed: non-finite energy, gradient or Hessian.
     NonFinite,
-    /// Failed: the Newton system could not be factorized or solved at any regularization.
+    /// Failed: the Newton system could not be factorized or solved at any regularization,
+    /// or the conjugate gradients did not reach their tolerance.
     FactorizationFailed,
+    /// Stopped after `max_iterations` steps without convergence, accepted because
+    /// [`NewtonSettings::accept_iteration_limit`] is set (not converged, but not an error).
+    IterationLimit,
 }
 
 impl Termination {
@@ -183,6 +230,10 @@ pub struct NewtonReport {
     pub regularizations: Vec<f64>,
     /// Total number of rejected trial steps over all line searches.
     pub line_search_backtracks: usize,
+    /// Conjugate-gradient iterations of each accepted step's linear solve (0 for Cholesky).
+    pub linear_iterations: Vec<usize>,
+    /// Where the run's wall time went (diagnostics only; not deterministic).
+    pub timings: NewtonTimings,
     /// Why the run stopped.
     pub termination: Termination,
 }
@@ -204,6 +255,19 @@ impl NewtonReport {
     }
 }
 
+/// Wall time (s) of the phases of a Newton run, summed over all iterations and attempts.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NewtonTimings {
+    /// Energy, gradient and Hessian assembly at the iterates (stencil evaluation and scatter).
+    pub assembly: f64,
+    /// Linear solves: numeric factorizations and triangular solves, or conjugate gradients
+    /// (the first Cholesky solve of a solver includes no symbolic analysis: that is built
+    /// before the run).
+    pub linear_solve: f64,
+    /// Line searches (energy evaluations at trial points) and step-bound queries.
+    pub line_search: f64,
+}
+
 /// What the Newton driver needs from a linear-algebra back end (plain Cholesky on the free DOFs,
 /// or the constrained KKT system).
 pub(crate) trait NewtonSystem {
@@ -219,10 +283,41 @@ pub(crate) trait NewtonSystem {
         x: &[f64],
         mu: f64,
         dx: &mut [f64],
-    ) -> Result<f64, String>;
+    ) -> Result<f64, SystemFailure>;
 
     /// `Some(feasible, ‖Cx − d‖∞)` for constrained systems.
     fn violation(&self, x: &[f64], settings: &NewtonSettings) -> Option<(bool, f64)>;
+
+    /// Iterations of the last successful linear solve (0 for direct solvers).
+    fn last_linear_iterations(&self) -> usize {
+        0
+    }
+
+    /// Whether [`NewtonSystem::residual_before_solve`] gives the residual (then the final
+    /// iterate of a run stopped by the iteration limit needs no Hessian).
+    fn residual_without_solve(&self) -> bool {
+        false
+    }
+}
+
+/// Why a linear solve of the Newton system failed.
+pub(crate) enum SystemFailure {
+    /// Worth retrying with a larger diagonal shift (failed factorization, indefiniteness).
+    Retry(String),
+    /// Not worth retrying (the conjugate gradients ran out of iterations): fail the run.
+    Fatal(String),
+}
+
+impl From<String> for SystemFailure {
+    fn from(msg: String) -> Self {
+        Self::Retry(msg)
+    }
+}
+
+impl From<&str> for SystemFailure {
+    fn from(msg: &str) -> Self {
+        Self::Retry(msg.to_owned())
+    }
 }
 
 /// Outcome of one line search.
@@ -252,6 +347,8 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
         step_lengths: Vec::new(),
         regularizations: Vec::new(),
         line_search_backtracks: 0,
+        linear_iterations: Vec::new(),
+        timings: NewtonTimings::default(),
         termination: Termination::MaxIterations,
     };
     let mut residual0 = None;
@@ -261,7 +358,9 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
         report.termination = termination;
         let report = Box::new(report);
         match termination {
-            Termination::GradientTolerance | Termination::StepTolerance => Ok(*report),
+            Termination::GradientTolerance
+            | Termination::StepTolerance
+            | Termination::IterationLimit => Ok(*report),
             Termination::MaxIterations => Err(SolveError::NotConverged(report)),
             Termination::LineSearchFailed => Err(SolveError::LineSearchFailed(report)),
             Termination::NonFinite => Err(SolveError::NonFinite(report)),
@@ -271,12 +370,31 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
         }
     };
 
+    let limit = if settings.accept_iteration_limit {
+        Termination::IterationLimit
+    } else {
+        Termination::MaxIterations
+    };
     loop {
-        let assembled = asm.assemble(problem, x, settings.project_spd)?;
-        let energy = assembled.energy;
-        let finite = energy.is_finite()
-            && assembled.gradient.iter().all(|g| g.is_finite())
-            && assembled.hessian.val().iter().all(|h| h.is_finite());
+        // At the iteration limit the residual is all that is left to compute: skip the
+        // Hessian when the system can give the residual without a solve.
+        let last = report.iterations >= settings.max_iterations && system.residual_without_solve();
+        let assembly_start = std::time::Instant::now();
+        let (energy, finite) = if last {
+            let (energy, gradient) = asm.gradient(problem, x)?;
+            (
+                energy,
+                energy.is_finite() && gradient.iter().all(|g| g.is_finite()),
+            )
+        } else {
+            let assembled = asm.assemble(problem, x, settings.project_spd)?;
+            let energy = assembled.energy;
+            let finite = energy.is_finite()
+                && assembled.gradient.iter().all(|g| g.is_finite())
+                && assembled.hessian.val().iter().all(|h| h.is_finite());
+            (energy, finite)
+        };
+        report.timings.assembly += assembly_start.elapsed().as_secs_f64();
         let noise = settings.energy_noise_tolerance * asm.energy_abs_sum();
         report.energy_history.push(energy);
         let violation = system.violation(x, settings);
@@ -302,7 +420,7 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
                 return finish(report, Termination::GradientTolerance, String::new());
             }
             if report.iterations >= settings.max_iterations {
-                return finish(report, Termination::MaxIterations, String::new());
+                return finish(report, limit, String::new());
             }
         }
 
@@ -321,9 +439,19 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
                 0 => 0.0,
                 k => base * settings.regularization_growth.powi(k as i32 - 1),
             };
-            let residual = match system.solve(asm, x, mu, &mut dx) {
+            let solve_start = std::time::Instant::now();
+            let solved = system.solve(asm, x, mu, &mut dx);
+            report.timings.linear_solve += solve_start.elapsed().as_secs_f64();
+            let residual = match solved {
                 Ok(r) => r,
-                Err(msg) => {
+                Err(SystemFailure::Fatal(msg)) => {
+                    return finish(
+                        report,
+                        Termination::FactorizationFailed,
+                        format!("{msg} (shift μ = {mu:.3e})"),
+                    );
+                }
+                Err(SystemFailure::Retry(msg)) => {
                     failure = (
                         Termination::FactorizationFailed,
                         format!("{msg} (shift μ = {mu:.3e})"),
@@ -339,7 +467,7 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
                     return finish(report, Termination::GradientTolerance, String::new());
                 }
                 if report.iterations >= settings.max_iterations {
-                    return finish(report, Termination::MaxIterations, String::new());
+                    return finish(report, limit, String::new());
                 }
             }
             if mu == 0.0 && feasible && inf_norm(&dx) <= settings.step_tol {
@@ -351,7 +479,18 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
                 .zip(&dx)
                 .map(|(g, d)| g * d)
                 .sum();
-            match line_search(
+            if !settings.line_search {
+                // Full step (within the admissible bound), no energy evaluation.
+                let alpha_max = problem.max_step(x, &dx);
+                if alpha_max.is_nan() || alpha_max <= 0.0 {
+                    failure = (Termination::LineSearchFailed, String::new());
+                    continue;
+                }
+                accepted = Some((alpha_max.min(1.0), mu));
+                break;
+            }
+            let search_start = std::time::Instant::now();
+            let searched = line_search(
                 problem,
                 asm,
                 x,
@@ -361,7 +500,9 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
                 noise,
                 settings,
                 &mut x_trial,
-            )? {
+            );
+            report.timings.line_search += search_start.elapsed().as_secs_f64();
+            match searched? {
                 LineSearch::Accepted { alpha, backtracks } => {
                     report.line_search_backtracks += backtracks;
                     accepted = Some((alpha, mu));
@@ -386,6 +527,9 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
         report.iterations += 1;
         report.step_lengths.push(alpha);
         report.regularizations.push(mu);
+        report
+            .linear_iterations
+            .push(system.last_linear_iterations());
     }
 }
 
@@ -443,13 +587,87 @@ pub(crate) fn inf_norm(v: &[f64]) -> f64 {
     v.iter().fold(0.0, |m, x| m.max(x.abs()))
 }
 
-/// The unconstrained back end: sparse Cholesky of `H_ff + μ I`.
+/// The unconstrained back end: sparse Cholesky or preconditioned CG on `H_ff + μ I`.
 struct FreeDofSystem {
+    /// Built on the first Cholesky solve (symbolic analysis once per solver).
     llt: Option<SparseLlt>,
+    /// Built on the first CG solve.
+    pcg: Option<Pcg>,
+    /// The linear solver of the current run (set by [`NewtonSolver::minimize`]).
+    linear_solver: LinearSolver,
+    /// CG iterations of the last successful solve (0 for Cholesky).
+    linear_iterations: usize,
     /// Hessian row of each DOF (`None` if fixed).
     free_index: Vec<Option<usize>>,
     rhs: Vec<f64>,
+    solution: Vec<f64>,
     diag_backup: Vec<f64>,
+}
+
+impl FreeDofSystem {
+    /// Builds the back end `linear_solver` needs for `asm`'s pattern, if not yet built.
+    fn prepare(&mut self, asm: &Assembler, linear_solver: LinearSolver) -> Result<(), SolveError> {
+        self.linear_solver = linear_solver;
+        if asm.n_free() == 0 {
+            return Ok(());
+        }
+        match linear_solver {
+            LinearSolver::Cholesky if self.llt.is_none() => {
+                self.llt = Some(SparseLlt::new(asm.hessian().symbolic())?);
+            }
+            LinearSolver::ConjugateGradient(_) if self.pcg.is_none() => {
+                self.pcg = Some(Pcg::new(asm.hessian())?);
+                self.solution = vec![0.0; asm.n_free()];
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// `H_ff + μ I` solved by Cholesky for `self.rhs` (in place).
+    fn solve_cholesky(&mut self, asm: &mut Assembler, mu: f64) -> Result<(), SystemFailure> {
+        let llt = self
+            .llt
+            .as_mut()
+            .ok_or("Cholesky solve requested before its symbolic analysis")?;
+        // Shift the diagonal in place, factorize, and restore it.
+        let (values, diag) = asm.hessian_values_and_diagonal();
+        for (b, &d) in self.diag_backup.iter_mut().zip(diag) {
+            *b = values[d];
+            values[d] += mu;
+        }
+        let factorized = llt.factorize(asm.hessian());
+        let (values, diag) = asm.hessian_values_and_diagonal();
+        for (&b, &d) in self.diag_backup.iter().zip(diag) {
+            values[d] = b;
+        }
+        factorized?;
+        llt.solve_in_place(&mut self.rhs)?;
+        self.linear_iterations = 0;
+        Ok(())
+    }
+
+    /// `H_ff + μ I` solved by PCG for `self.rhs` (in place).
+    fn solve_pcg(
+        &mut self,
+        asm: &Assembler,
+        mu: f64,
+        settings: &PcgSettings,
+    ) -> Result<(), SystemFailure> {
+        let pcg = self
+            .pcg
+            .as_mut()
+            .ok_or("CG solve requested before its workspace was built")?;
+        match pcg.solve(asm.hessian(), mu, &self.rhs, &mut self.solution, settings) {
+            Ok(r) => {
+                self.linear_iterations = r.iterations;
+                self.rhs.copy_from_slice(&self.solution);
+                Ok(())
+            }
+            Err(e @ PcgFailure::NotConverged { .. }) => Err(SystemFailure::Fatal(e.to_string())),
+            Err(e) => Err(SystemFailure::Retry(e.to_string())),
+        }
+    }
 }
 
 impl NewtonSystem for FreeDofSystem {
@@ -469,30 +687,21 @@ impl NewtonSystem for FreeDofSystem {
         _x: &[f64],
         mu: f64,
         dx: &mut [f64],
-    ) -> Result<f64, String> {
+    ) -> Result<f64, SystemFailure> {
         dx.fill(0.0);
-        let Some(llt) = self.llt.as_mut() else {
+        if self.rhs.is_empty() {
             return Ok(0.0); // no free DOFs: nothing to solve
-        };
-        // Shift the diagonal in place, factorize, and restore it.
-        let (values, diag) = asm.hessian_values_and_diagonal();
-        for (b, &d) in self.diag_backup.iter_mut().zip(diag) {
-            *b = values[d];
-            values[d] += mu;
         }
-        let factorized = llt.factorize(asm.hessian());
-        let (values, diag) = asm.hessian_values_and_diagonal();
-        for (&b, &d) in self.diag_backup.iter().zip(diag) {
-            values[d] = b;
-        }
-        factorized?;
         let gradient = asm.last_gradient();
         for (dof, f) in self.free_index.iter().enumerate() {
             if let Some(i) = *f {
                 self.rhs[i] = -gradient[dof];
             }
         }
-        llt.solve_in_place(&mut self.rhs)?;
+        match self.linear_solver {
+            LinearSolver::Cholesky => self.solve_cholesky(asm, mu)?,
+            LinearSolver::ConjugateGradient(settings) => self.solve_pcg(asm, mu, &settings)?,
+        }
         if !self.rhs.iter().all(|v| v.is_finite()) {
             return Err("non-finite Newton step".into());
         }
@@ -501,19 +710,30 @@ impl NewtonSystem for FreeDofSystem {
                 dx[dof] = self.rhs[i];
             }
         }
-        Ok(self.residual_before_solve(gradient).unwrap_or(0.0))
+        Ok(self
+            .residual_before_solve(asm.last_gradient())
+            .unwrap_or(0.0))
     }
 
     fn violation(&self, _x: &[f64], _settings: &NewtonSettings) -> Option<(bool, f64)> {
         None
     }
+
+    fn last_linear_iterations(&self) -> usize {
+        self.linear_iterations
+    }
+
+    fn residual_without_solve(&self) -> bool {
+        true
+    }
 }
 
 /// A reusable Newton minimizer for one problem structure and one set of Dirichlet DOFs.
 ///
-/// Building it computes the sparsity pattern and the symbolic Cholesky factorization once;
-/// [`minimize`](Self::minimize) can then be called many times (e.g. once per time step) on
-/// problems with the same stencils.
+/// Building it computes the sparsity pattern once; the symbolic Cholesky factorization (or
+/// the conjugate-gradient workspace) is built on the first [`minimize`](Self::minimize) that
+/// needs it. [`minimize`](Self::minimize) can be called many times (e.g. once per time step)
+/// on problems with the same stencils.
 pub struct NewtonSolver {
     assembler: Assembler,
     system: FreeDofSystem,
@@ -525,20 +745,19 @@ impl NewtonSolver {
     pub fn new<P: Problem + ?Sized>(problem: &P, fixed: &[bool]) -> Result<Self, SolveError> {
         let assembler = Assembler::with_fixed_dofs(problem, fixed)?;
         let n_free = assembler.n_free();
-        let llt = if n_free > 0 {
-            Some(SparseLlt::new(assembler.hessian().symbolic())?)
-        } else {
-            None
-        };
         let free_index = (0..assembler.n_dofs())
             .map(|d| assembler.free_index(d))
             .collect();
         Ok(Self {
             assembler,
             system: FreeDofSystem {
-                llt,
+                llt: None,
+                pcg: None,
+                linear_solver: LinearSolver::Cholesky,
+                linear_iterations: 0,
                 free_index,
                 rhs: vec![0.0; n_free],
+                solution: Vec::new(),
                 diag_backup: vec![0.0; n_free],
             },
         })
@@ -554,6 +773,8 @@ impl NewtonSolver {
     ) -> Result<NewtonReport, SolveError> {
         settings.validate()?;
         check_len("x", self.assembler.n_dofs(), x.len())?;
+        self.system
+            .prepare(&self.assembler, settings.linear_solver)?;
         run_newton(
             problem,
             x,

@@ -1,0 +1,508 @@
+//! Jacobi-preconditioned conjugate gradients for the symmetric positive definite systems of
+//! Newton's method (an alternative to the sparse Cholesky factorization for large problems).
+//!
+//! Solves `(A + μ I) x = b` for `A` given by its lower triangle in CSC form (the storage of
+//! [`crate::Assembler`]), starting from `x₀ = 0` (Saad 2003, *Iterative Methods for Sparse
+//! Linear Systems*, Alg. 9.1), with one of two preconditioners ([`Preconditioner`]):
+//!
+//! - Jacobi, `P = diag(A + μ I)`: parallel and cheap, but blind to the stiff couplings along
+//!   a yarn;
+//! - incomplete Cholesky without fill, IC(0) (Saad §10.3): `P = L̃ L̃ᵀ` with `L̃` on the
+//!   lower-triangle pattern of `A`, factorized for every solve; if a pivot is not positive,
+//!   the factorization is retried on `A + μI + σ diag(A + μI)` with `σ = 10⁻³, 10⁻², …, 1`
+//!   (Manteuffel's shift). Its triangular solves are serial.
+//!
+//! It stops when `‖r_k‖₂ ≤ tol · ‖b‖₂` and fails loudly otherwise:
+//!
+//! - a non-positive diagonal entry or a direction with `pᵀ(A + μI)p ≤ 0` proves the matrix is
+//!   not positive definite ([`PcgFailure::Indefinite`]);
+//! - no convergence within the iteration cap ([`PcgFailure::NotConverged`]).
+//!
+//! Started from zero, every CG iterate is a descent direction of the quadratic model, so a
+//! Newton step from a converged solve is one as well.
+//!
+//! **Determinism.** The full symmetric pattern is built once (rows of `A` in CSR form, with the
+//! index of each entry in the lower-triangle value array). The product `A p` is parallel over
+//! fixed blocks of rows, each row summed serially; dot products are summed in fixed chunks,
+//! whose partial sums are added serially in chunk order. Results are therefore bit-identical
+//! for any rayon thread count.
+
+use faer::sparse::SparseColMatRef;
+use rayon::prelude::*;
+
+use crate::SolveError;
+
+/// Rows (or vector entries) per parallel task; fixed so that summation order, and hence the
+/// result, does not depend on the thread count.
+const CHUNK: usize = 4096;
+
+/// The preconditioner of [`Pcg::solve`] (module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preconditioner {
+    /// `diag(A + μI)`.
+    Jacobi,
+    /// Incomplete Cholesky IC(0) on the pattern of `A` (with a diagonal shift on breakdown).
+    IncompleteCholesky,
+}
+
+/// Stopping rule and preconditioner of [`Pcg::solve`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PcgSettings {
+    /// Relative tolerance on the residual: stop when `‖b − A x‖₂ ≤ relative_tolerance ‖b‖₂`
+    /// (dimensionless, in `(0, 1)`).
+    pub relative_tolerance: f64,
+    /// Iteration cap (≥ 1); reaching it without convergence is an error.
+    pub max_iterations: usize,
+    /// The preconditioner.
+    pub preconditioner: Preconditioner,
+}
+
+impl PcgSettings {
+    /// Checks the ranges (`0 < relative_tolerance < 1`, `max_iterations ≥ 1`).
+    pub fn validate(&self) -> Result<(), SolveError> {
+        if !(self.relative_tolerance > 0.0 && self.relative_tolerance < 1.0) {
+            return Err(SolveError::InvalidSettings(format!(
+                "PCG relative tolerance must lie in (0, 1), got {}",
+                self.relative_tolerance
+            )));
+        }
+        if self.max_iterations == 0 {
+            return Err(SolveError::InvalidSettings(
+                "PCG iteration cap must be ≥ 1".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A converged PCG solve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PcgReport {
+    /// Number of CG iterations (matrix–vector products).
+    pub iterations: usize,
+    /// Final relative residual `‖b − (A + μI) x‖₂ / ‖b‖₂` (recursively updated; 0 for `b = 0`).
+    pub relative_residual: f64,
+}
+
+/// Why a PCG solve failed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PcgFailure {
+    /// The matrix is not positive definite: a diagonal entry or a curvature `pᵀAp` is not
+    /// positive (or not finite).
+    #[error("PCG: matrix is not positive definite ({0})")]
+    Indefinite(String),
+    /// The iteration cap was reached before the tolerance.
+    #[error(
+        "PCG did not converge in {iterations} iterations: relative residual {relative_residual:.3e} > tolerance {tolerance:.3e}"
+    )]
+    NotConverged {
+        /// Iterations done.
+        iterations: usize,
+        /// Relative residual reached.
+        relative_residual: f64,
+        /// The requested tolerance.
+        tolerance: f64,
+    },
+    /// The matrix pattern or a vector length differs from the workspace's.
+    #[error("PCG: invalid input ({0})")]
+    Input(String),
+    /// The right-hand side or a matrix entry is not finite.
+    #[error("PCG: non-finite input ({0})")]
+    NonFinite(String),
+}
+
+/// Reusable PCG workspace for one sparsity pattern (`n × n`, lower triangle in CSC form).
+#[derive(Clone, Debug)]
+pub struct Pcg {
+    n: usize,
+    /// Stored entries of the lower triangle the workspace was built for.
+    lower_nnz: usize,
+    /// Full symmetric matrix in CSR form: row `i` has entries `row_ptr[i]..row_ptr[i + 1]`.
+    row_ptr: Vec<usize>,
+    col_idx: Vec<usize>,
+    /// Index into the lower-triangle value array of each full entry.
+    source: Vec<usize>,
+    /// Index into the lower-triangle value array of each diagonal entry (`usize::MAX`: none).
+    diag_source: Vec<usize>,
+    values: Vec<f64>,
+    inv_diag: Vec<f64>,
+    /// IC(0) factor on the lower pattern (built on the first IC solve).
+    ic: Option<IncompleteCholesky>,
+    r: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
+    q: Vec<f64>,
+}
+
+impl Pcg {
+    /// Builds the full symmetric pattern of the square matrix whose lower triangle has the
+    /// pattern of `lower` (entries above the diagonal are ignored).
+    pub fn new(lower: SparseColMatRef<'_, usize, f64>) -> Result<Self, SolveError> {
+        let n = lower.nrows();
+        if lower.ncols() != n {
+            return Err(SolveError::DimensionMismatch {
+                what: "PCG matrix columns",
+                expected: n,
+                got: lower.ncols(),
+            });
+        }
+        let col_ptr = lower.col_ptr();
+        let row_idx = lower.row_idx();
+        let mut count = vec![0usize; n + 1];
+        let mut diag_source = vec![usize::MAX; n];
+        for j in 0..n {
+            for e in col_ptr[j]..col_ptr[j + 1] {
+                let i = row_idx[e];
+                if i > j {
+                    count[i + 1] += 1;
+                    count[j + 1] += 1;
+                } else if i == j {
+                    count[i + 1] += 1;
+                    diag_source[i] = e;
+                }
+            }
+        }
+        for i in 0..n {
+            count[i + 1] += count[i];
+        }
+        let row_ptr = count.clone();
+        let nnz = row_ptr[n];
+        let mut col_idx = vec![0usize; nnz];
+        let mut source = vec![0usize; nnz];
+        let mut next = count;
+        // Columns in increasing order, so every row's entries come out sorted by column.
+        for j in 0..n {
+            for e in col_ptr[j]..col_ptr[j + 1] {
+                let i = row_idx[e];
+                if i >= j {
+                    col_idx[next[i]] = j;
+                    source[next[i]] = e;
+                    next[i] += 1;
+                }
+            }
+        }
+        // Second pass: the mirrored entries (columns > row), appended to each row after its
+        // lower part, again in increasing column order.
+        for j in 0..n {
+            for e in col_ptr[j]..col_ptr[j + 1] {
+                let i = row_idx[e];
+                if i > j {
+                    col_idx[next[j]] = i;
+                    source[next[j]] = e;
+                    next[j] += 1;
+                }
+            }
+        }
+        Ok(Self {
+            n,
+            lower_nnz: col_ptr[n],
+            row_ptr,
+            col_idx,
+            source,
+            diag_source,
+            values: vec![0.0; nnz],
+            inv_diag: vec![0.0; n],
+            ic: None,
+            r: vec![0.0; n],
+            z: vec![0.0; n],
+            p: vec![0.0; n],
+            q: vec![0.0; n],
+        })
+    }
+
+    /// Dimension of the system.
+    pub fn dim(&self) -> usize {
+        self.n
+    }
+
+    /// Solves `(A + μ I) x = b` (`A` = `lower`, the same pattern as in [`Pcg::new`]) from
+    /// `x = 0`; `x` is overwritten. See the [module documentation](self).
+    pub fn solve(
+        &mut self,
+        lower: SparseColMatRef<'_, usize, f64>,
+        mu: f64,
+        b: &[f64],
+        x: &mut [f64],
+        settings: &PcgSettings,
+    ) -> Result<PcgReport, PcgFailure> {
+        let n = self.n;
+        if lower.nrows() != n || lower.ncols() != n || lower.col_ptr()[n] != self.lower_nnz {
+            return Err(PcgFailure::Input(format!(
+                "matrix {} × {} with {} stored entries, workspace built for {n} × {n} with {}",
+                lower.nrows(),
+                lower.ncols(),
+                lower.col_ptr()[lower.ncols()],
+                self.lower_nnz
+            )));
+        }
+        if b.len() != n || x.len() != n {
+            return Err(PcgFailure::Input(format!(
+                "vector lengths {} and {}, matrix dimension {n}",
+                b.len(),
+                x.len()
+            )));
+        }
+        let lower_values = lower.val();
+        // Gather the full values and the Jacobi preconditioner.
+        self.values
+            .par_chunks_mut(CHUNK)
+            .zip(self.source.par_chunks(CHUNK))
+            .for_each(|(v, s)| {
+                for (vi, &si) in v.iter_mut().zip(s) {
+                    *vi = lower_values[si];
+                }
+            });
+        if !self.values.iter().all(|v| v.is_finite()) || !mu.is_finite() {
+            return Err(PcgFailure::NonFinite("matrix entry or shift".into()));
+        }
+        if !b.iter().all(|v| v.is_finite()) {
+            return Err(PcgFailure::NonFinite("right-hand side".into()));
+        }
+        for i in 0..n {
+            let d = match self.diag_source[i] {
+                usize::MAX => 0.0,
+                s => lower_values[s],
+            } + mu;
+            if d.is_nan() || d <= 0.0 {
+                return Err(PcgFailure::Indefinite(format!(
+                    "diagonal entry {i} is {d:.3e}"
+                )));
+            }
+            self.inv_diag[i] = 1.0 / d;
+        }
+        if settings.preconditioner == Preconditioner::IncompleteCholesky {
+            let ic = match &mut self.ic {
+                Some(ic) => ic,
+                None => self.ic.insert(IncompleteCholesky::new(lower)?),
+            };
+            ic.factorize(lower_values, mu)?;
+        }
+        x.fill(0.0);
+        let b_norm = dot(b, b).sqrt();
+        if b_norm == 0.0 {
+            return Ok(PcgReport {
+                iterations: 0,
+                relative_residual: 0.0,
+            });
+        }
+        let target = settings.relative_tolerance * b_norm;
+        self.r.copy_from_slice(b);
+        for ((z, &r), &m) in self.z.iter_mut().zip(&self.r).zip(&self.inv_diag) {
+            *z = m * r;
+        }
+        if let Some(ic) = self
+            .ic
+            .as_ref()
+            .filter(|_| settings.preconditioner == Preconditioner::IncompleteCholesky)
+        {
+            ic.apply(&self.r, &mut self.z);
+        }
+        self.p.copy_from_slice(&self.z);
+        let mut rz = dot(&self.r, &self.z);
+        let mut r_norm = b_norm;
+        for iteration in 1..=settings.max_iterations {
+            self.multiply(mu);
+            let curvature = dot(&self.p, &self.q);
+            if curvature.is_nan() || curvature <= 0.0 {
+                return Err(PcgFailure::Indefinite(format!(
+                    "pᵀAp = {curvature:.3e} at iteration {iteration}"
+                )));
+            }
+            let alpha = rz / curvature;
+            // x += α p, r −= α q, z = P⁻¹ r; partial sums of rᵀz and rᵀr per chunk.
+            let partials: Vec<(f64, f64)> = x
+                .par_chunks_mut(CHUNK)
+                .zip(self.r.par_chunks_mut(CHUNK))
+                .zip(self.z.par_chunks_mut(CHUNK))
+                .zip(self.p.par_chunks(CHUNK))
+                .zip(self.q.par_chunks(CHUNK))
+                .zip(self.inv_diag.par_chunks(CHUNK))
+                .map(|(((((x, r), z), p), q), m)| {
+                    let (mut rz, mut rr) = (0.0, 0.0);
+                    for i in 0..x.len() {
+                        x[i] += alpha * p[i];
+                        r[i] -= alpha * q[i];
+                        z[i] = m[i] * r[i];
+                        rz += r[i] * z[i];
+                        rr += r[i] * r[i];
+                    }
+                    (rz, rr)
+                })
+                .collect();
+            let (mut rz_new, rr) = partials
+                .iter()
+                .fold((0.0, 0.0), |(a, b), &(c, d)| (a + c, b + d));
+            if let Some(ic) = self
+                .ic
+                .as_ref()
+                .filter(|_| settings.preconditioner == Preconditioner::IncompleteCholesky)
+            {
+                // Replace the Jacobi z computed above by the IC(0) one.
+                ic.apply(&self.r, &mut self.z);
+                rz_new = dot(&self.r, &self.z);
+            }
+            r_norm = rr.sqrt();
+            if !r_norm.is_finite() {
+                return Err(PcgFailure::NonFinite(format!(
+                    "residual at iteration {iteration}"
+                )));
+            }
+            if r_norm <= target {
+                return Ok(PcgReport {
+                    iterations: iteration,
+                    relative_residual: r_norm / b_norm,
+                });
+            }
+            let beta = rz_new / rz;
+            rz = rz_new;
+            self.p
+                .par_chunks_mut(CHUNK)
+                .zip(self.z.par_chunks(CHUNK))
+                .for_each(|(p, z)| {
+                    for (pi, &zi) in p.iter_mut().zip(z) {
+                        *pi = zi + beta * *pi;
+                    }
+                });
+        }
+        Err(PcgFailure::NotConverged {
+            iterations: settings.max_iterations,
+            relative_residual: r_norm / b_norm,
+            tolerance: settings.relative_tolerance,
+        })
+    }
+
+    /// `q = (A + μ I) p`, parallel over fixed row blocks.
+    fn multiply(&mut self, mu: f64) {
+        let (row_ptr, col_idx, values, p) = (&self.row_ptr, &self.col_idx, &self.values, &self.p);
+        self.q.par_chunks_mut(CHUNK).enumerate().for_each(|(c, q)| {
+            let first = c * CHUNK;
+            for (k, qi) in q.iter_mut().enumerate() {
+                let i = first + k;
+                let mut s = mu * p[i];
+                for e in row_ptr[i]..row_ptr[i + 1] {
+                    s += values[e] * p[col_idx[e]];
+                }
+                *qi = s;
+            }
+        });
+    }
+}
+
+/// `aᵀb`, summed in fixed chunks (thread-count independent).
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let partials: Vec<f64> = a
+        .par_chunks(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>())
+        .collect();
+    partials.iter().sum()
+}
+
+/// IC(0): `L̃` on the lower-triangle pattern of `A` (module documentation).
+#[derive(Clone, Debug)]
+struct IncompleteCholesky {
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    values: Vec<f64>,
+    /// `marker[i]`: value index of row `i` in the column being updated (`usize::MAX`: none).
+    marker: Vec<usize>,
+}
+
+impl IncompleteCholesky {
+    /// Copies the pattern; every column must start with its diagonal entry.
+    fn new(lower: SparseColMatRef<'_, usize, f64>) -> Result<Self, PcgFailure> {
+        let n = lower.ncols();
+        let col_ptr = lower.col_ptr()[..=n].to_vec();
+        let row_idx = lower.row_idx()[..col_ptr[n]].to_vec();
+        for j in 0..n {
+            let entries = &row_idx[col_ptr[j]..col_ptr[j + 1]];
+            if entries.first() != Some(&j) || entries.windows(2).any(|w| w[0] >= w[1]) {
+                return Err(PcgFailure::Input(format!(
+                    "IC(0) needs sorted lower-triangle columns starting with the diagonal \
+                     (column {j})"
+                )));
+            }
+        }
+        Ok(Self {
+            values: vec![0.0; col_ptr[n]],
+            marker: vec![usize::MAX; n],
+            col_ptr,
+            row_idx,
+        })
+    }
+
+    /// Factorizes `A + μI` (values of the lower triangle), shifting on breakdown.
+    fn factorize(&mut self, lower_values: &[f64], mu: f64) -> Result<(), PcgFailure> {
+        let n = self.col_ptr.len() - 1;
+        for sigma in [0.0, 1e-3, 1e-2, 1e-1, 1.0] {
+            let nnz = self.values.len();
+            self.values.copy_from_slice(&lower_values[..nnz]);
+            for j in 0..n {
+                let d = &mut self.values[self.col_ptr[j]];
+                *d = (*d + mu) * (1.0 + sigma);
+            }
+            if self.try_factorize() {
+                return Ok(());
+            }
+        }
+        Err(PcgFailure::Indefinite(
+            "incomplete Cholesky broke down even with a diagonal shift of 100 %".into(),
+        ))
+    }
+
+    /// Right-looking IC(0) in place; `false` on a non-positive pivot.
+    fn try_factorize(&mut self) -> bool {
+        let n = self.col_ptr.len() - 1;
+        let (cp, ri) = (&self.col_ptr, &self.row_idx);
+        let (values, marker) = (&mut self.values, &mut self.marker);
+        for k in 0..n {
+            let pivot = values[cp[k]];
+            if !(pivot > 0.0 && pivot.is_finite()) {
+                return false;
+            }
+            let lkk = pivot.sqrt();
+            values[cp[k]] = lkk;
+            for e in cp[k] + 1..cp[k + 1] {
+                values[e] /= lkk;
+            }
+            for e1 in cp[k] + 1..cp[k + 1] {
+                let j = ri[e1];
+                let ljk = values[e1];
+                for f in cp[j]..cp[j + 1] {
+                    marker[ri[f]] = f;
+                }
+                for e2 in e1..cp[k + 1] {
+                    let f = marker[ri[e2]];
+                    if f != usize::MAX {
+                        values[f] -= values[e2] * ljk;
+                    }
+                }
+                for f in cp[j]..cp[j + 1] {
+                    marker[ri[f]] = usize::MAX;
+                }
+            }
+        }
+        true
+    }
+
+    /// `z = (L̃ L̃ᵀ)⁻¹ r` (serial forward and backward substitution).
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        let n = self.col_ptr.len() - 1;
+        let (cp, ri, v) = (&self.col_ptr, &self.row_idx, &self.values);
+        z.copy_from_slice(r);
+        for j in 0..n {
+            let zj = z[j] / v[cp[j]];
+            z[j] = zj;
+            for e in cp[j] + 1..cp[j + 1] {
+                z[ri[e]] -= v[e] * zj;
+            }
+        }
+        for j in (0..n).rev() {
+            let mut s = z[j];
+            for e in cp[j] + 1..cp[j + 1] {
+                s -= v[e] * z[ri[e]];
+            }
+            z[j] = s / v[cp[j]];
+        }
+    }
+}
