@@ -8,7 +8,11 @@
 //! pinned, dt = 1 ms, and one warm-up step (which builds the sparsity pattern and the
 //! symbolic factorization). One iteration is one further step of the same, evolving, swatch.
 //! `examples/scaling.rs` covers larger sizes (≥ 1e5 DoFs) and splits a step into its
-//! phases; sizes here stop at 48 × 48 (≈ 3 s a step) to keep a full run short.
+//! phases; sizes here stop at 48 × 48 (≈ 3 s a step) to keep a full run short. Besides the
+//! default step (full Newton, sparse Cholesky) the 32 × 32 garter is also timed with
+//! linearized implicit Euler and IC(0)-preconditioned CG (`garter-linear-ic`) and with
+//! linearized implicit Euler, Cholesky and Rayleigh-β matrices refreshed every 10 steps
+//! (`garter-linear-chol-lag`).
 
 #![allow(missing_docs)] // criterion_group! generates undocumented items
 
@@ -19,19 +23,21 @@ use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
 use sim_persistent::topology::{Side, Topology, knit_node};
+use solver::{LinearSolver, PcgSettings, Preconditioner};
 use std::time::Duration;
 
-/// A `chart` swatch hanging from its pinned bind-off edge, after one warm-up step.
-fn hanging(chart: &Chart) -> Simulator {
+/// A `chart` swatch hanging from its pinned bind-off edge, after one warm-up step, with
+/// `adjust` applied to the step settings.
+fn hanging(chart: &Chart, adjust: fn(StepSettings) -> StepSettings) -> Simulator {
     let (w, h) = (chart.width(), chart.height());
     let params = YarnParams::sweater();
     let topo = Topology::knit(chart);
     let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).expect("layout");
-    let settings = StepSettings {
+    let settings = adjust(StepSettings {
         rayleigh_alpha: 10.0,
         rayleigh_beta: 0.01,
         ..StepSettings::default()
-    };
+    });
     let mut sim =
         Simulator::new(topo, &layout, params, ForceSet::default(), settings).expect("simulator");
     let pins: Vec<usize> = (0..w)
@@ -51,20 +57,36 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     group.warm_up_time(Duration::from_millis(500));
     group.measurement_time(Duration::from_secs(3));
-    for (pattern, n) in [
-        ("garter", 8),
-        ("garter", 16),
-        ("garter", 32),
-        ("garter", 48),
-        ("stockinette", 16),
-        ("stockinette", 32),
+    let default: fn(StepSettings) -> StepSettings = |s| s;
+    let linear_ic: fn(StepSettings) -> StepSettings = |s| {
+        let mut s = s.linearized_implicit_euler();
+        s.newton.linear_solver = LinearSolver::ConjugateGradient(PcgSettings {
+            relative_tolerance: 1e-6,
+            max_iterations: 20_000,
+            preconditioner: Preconditioner::IncompleteCholesky,
+        });
+        s
+    };
+    let linear_chol_lag: fn(StepSettings) -> StepSettings = |s| StepSettings {
+        damping_refresh_steps: 10,
+        ..s.linearized_implicit_euler()
+    };
+    for (pattern, n, adjust) in [
+        ("garter", 8, default),
+        ("garter", 16, default),
+        ("garter", 32, default),
+        ("garter", 48, default),
+        ("stockinette", 16, default),
+        ("stockinette", 32, default),
+        ("garter-linear-ic", 32, linear_ic),
+        ("garter-linear-chol-lag", 32, linear_chol_lag),
     ] {
         let chart = match pattern {
-            "garter" => Chart::garter(n, n),
-            _ => Chart::stockinette(n, n),
+            "stockinette" => Chart::stockinette(n, n),
+            _ => Chart::garter(n, n),
         }
         .expect("valid size");
-        let mut sim = hanging(&chart);
+        let mut sim = hanging(&chart, adjust);
         let n_dofs = sim.dofs().n_dofs();
         group.throughput(Throughput::Elements(n_dofs as u64));
         group.bench_function(

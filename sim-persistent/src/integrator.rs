@@ -30,10 +30,20 @@
 //!   test measures the total drift and its decrease with `h`.
 //! - *Friction.* The anchored springs of Eq. 5 act with fixed anchors during the Newton solve;
 //!   the stick/slip anchor update runs after each step
-//!   ([`crate::forces::friction::AnchoredSpring::update_anchor`]).
+//!   ([`crate::forces::friction::AnchoredSpring::update_anchor`]) with the slip force
+//!   `μ λ`, λ *lagged*: estimated ([`crate::forces::compression`]) at the state at the start
+//!   of the (sub)step, so that it does not change during the Newton solve (a static solve
+//!   uses its equilibrium instead, [`Simulator::solve_static`]).
 //! - *Damping.* `D = α M(qₙ) + β K⁺(qₙ)`, with `K⁺` the per-stencil PSD-projected Hessian of
 //!   the elastic terms at the start of the step (so damping is dissipative), both frozen over
-//!   the step like `M`.
+//!   the step like `M`. Optionally `K⁺` is only recomputed every
+//!   [`StepSettings::damping_refresh_steps`] steps (its per-stencil eigen-projections are
+//!   the largest part of a step's setup).
+//! - *Linear solver and linearization.* The Newton system is solved by sparse Cholesky
+//!   (default) or preconditioned conjugate gradients (`StepSettings::newton.linear_solver`);
+//!   [`StepSettings::linearized_implicit_euler`] stops after one Newton iteration without
+//!   line search (linearized backward Euler, as in seed 000's ref. 6), reporting the
+//!   residual it leaves.
 //! - *Step halving.* A step whose Newton solve fails (far from the minimizer, e.g. the first
 //!   undamped step from a layout that is not at rest) is replaced by two half steps,
 //!   recursively ([`StepSettings::max_halvings`]); the state only changes on success.
@@ -45,6 +55,7 @@
 //!   of each (sub)step; the wrapping energy is zero at the layout. Without the ramp (`T = 0`)
 //!   every contact would get a quarter-turn torque at once.
 
+use crate::forces::compression::{CompressionEstimator, NodeCompression, slip_forces};
 use crate::forces::quadratic::Quadratic;
 use crate::forces::wrapping::StitchWrap;
 use crate::forces::{ForceSet, Potential, Term, TermKind, build_terms};
@@ -70,7 +81,10 @@ pub struct StepSettings {
     /// inertia term keeps the step's Hessian positive definite for cloth-sized steps, plain
     /// Newton then converges in 2–3 iterations where projection needs ≈ 5 (and projects
     /// every 8 × 8 and 12 × 12 block each iteration); the solver's diagonal shift still
-    /// catches an indefinite Hessian.
+    /// catches an indefinite Hessian. The linear solver of the Newton system is
+    /// `newton.linear_solver` (sparse Cholesky by default, or preconditioned conjugate
+    /// gradients); [`StepSettings::linearized_implicit_euler`] turns the step into a single
+    /// Newton iteration.
     pub newton: NewtonSettings,
     /// How often a step whose Newton solve fails may be halved (recursively). Default 4
     /// (down to dt/16). A step is also a Newton minimization far from its start when the
@@ -81,6 +95,11 @@ pub struct StepSettings {
     /// (100 steps of 1 ms), several periods of the slowest loop modes of a swatch of the
     /// Table 1 yarns, so that the contacts wrap up quasi-statically.
     pub wrapping_ramp_time: f64,
+    /// Recompute the Rayleigh-β damping matrices `K⁺` every this many (sub)steps (≥ 1);
+    /// in between they stay lagged (only their centres move to `qₙ`), like the lagged mass
+    /// matrix. Default 1: every step (the per-stencil PSD projections of `K⁺` are the largest
+    /// part of a step's setup).
+    pub damping_refresh_steps: usize,
 }
 
 impl Default for StepSettings {
@@ -97,6 +116,7 @@ impl Default for StepSettings {
             },
             max_halvings: 4,
             wrapping_ramp_time: 0.1,
+            damping_refresh_steps: 1,
         }
     }
 }
@@ -119,8 +139,29 @@ impl StepSettings {
                 return Err(SimError::Invalid(format!("{name} must be ≥ 0, got {v}")));
             }
         }
+        if self.damping_refresh_steps == 0 {
+            return Err(SimError::Invalid(
+                "damping_refresh_steps must be ≥ 1".into(),
+            ));
+        }
         self.newton.validate()?;
         Ok(())
+    }
+
+    /// These settings with *linearized* implicit Euler: one Newton iteration per step from
+    /// `qₙ`, taken at full length without a line search (the integrator of seed 000's ref. 6,
+    /// Cirio et al. 2014, i.e. Baraff & Witkin 1998's linearized backward Euler:
+    /// `(M + h D + h² K) Δv = h (f − D vₙ − h K vₙ)`, which is exactly the first Newton step on
+    /// the incremental potential). The step is not iterated to convergence; its Newton report
+    /// ends with [`solver::Termination::IterationLimit`] and still records the gradient
+    /// residual of the incremental potential after the iteration
+    /// ([`NewtonReport::residual_history`]), so the linearization error stays visible. A
+    /// step whose linear solve fails (or whose result is not finite) is halved as usual.
+    pub fn linearized_implicit_euler(mut self) -> Self {
+        self.newton.max_iterations = 1;
+        self.newton.line_search = false;
+        self.newton.accept_iteration_limit = true;
+        self
     }
 }
 
@@ -156,6 +197,33 @@ pub struct StepReport {
     /// Cholesky factorizations and solves), summed over all attempted substeps (failed
     /// ones included).
     pub newton_seconds: f64,
+    /// Conjugate-gradient iterations over all accepted Newton iterations of all substeps
+    /// (0 with the sparse Cholesky solver).
+    pub linear_iterations: usize,
+}
+
+/// Moves a lagged damping form's centre to `qn` and rescales its matrix by `rescale` (if
+/// any). Returns `false` for a term that is not a damping form.
+fn recentre_damping_form(term: &mut Term, qn: &[f64], rescale: Option<f64>) -> bool {
+    fn apply<const N: usize>(
+        form: &mut Quadratic<N>,
+        d: &[usize; N],
+        qn: &[f64],
+        rescale: Option<f64>,
+    ) {
+        form.center = gather(qn, d);
+        if let Some(r) = rescale {
+            form.matrix *= r;
+        }
+    }
+    match term {
+        Term::Damping1(f, d) => apply(f, d, qn, rescale),
+        Term::Damping2(f, d) => apply(f, d, qn, rescale),
+        Term::Damping8(f, d) => apply(f, d, qn, rescale),
+        Term::Damping12(f, d) => apply(f, d, qn, rescale),
+        _ => return false,
+    }
+    true
 }
 
 /// A fabric under implicit Euler time stepping (see the module documentation).
@@ -176,6 +244,12 @@ pub struct Simulator {
     state: State,
     solver: Option<NewtonSolver>,
     time: f64,
+    /// The Rayleigh-β damping matrices: (number of (sub)steps they were used in, the
+    /// factor β/h they hold); `None` before the first step.
+    damping_built: Option<(usize, f64)>,
+    /// Compression estimation for the Coulomb bound of friction (`None` without friction
+    /// springs or with a constant slip force).
+    compression: Option<CompressionEstimator>,
 }
 
 impl Simulator {
@@ -191,6 +265,10 @@ impl Simulator {
     ) -> Result<Self, SimError> {
         params.validate().map_err(SimError::Invalid)?;
         settings.validate()?;
+        forces
+            .crossing_shear_params
+            .validate()
+            .map_err(SimError::Invalid)?;
         topology
             .validate()
             .map_err(|e| SimError::Invalid(e.to_string()))?;
@@ -242,6 +320,17 @@ impl Simulator {
             }
         }
         let potential = Potential::new(dofs.n_dofs(), terms).map_err(SimError::Invalid)?;
+        let has_friction = potential.terms[..n_static]
+            .iter()
+            .any(|t| matches!(t, Term::Friction(..)));
+        let compression = if has_friction && params.friction_max_force.is_none() {
+            Some(
+                CompressionEstimator::new(&topology, &dofs)
+                    .map_err(|e| SimError::Invalid(e.to_string()))?,
+            )
+        } else {
+            None
+        };
         let mut fixed = vec![false; dofs.n_dofs()];
         for (n, node) in topology.nodes.iter().enumerate() {
             for (s, p) in node.passes.iter().enumerate() {
@@ -264,7 +353,33 @@ impl Simulator {
             state,
             solver: None,
             time: 0.0,
+            damping_built: None,
+            compression,
         })
+    }
+
+    /// Adds sphere and plane obstacles: one penalty-contact term per node and obstacle
+    /// ([`crate::forces::obstacle`]), counted among the elastic terms (potential energy,
+    /// clamp forces, static equilibrium). Without obstacles nothing is added, so a scene
+    /// without obstacles makes no obstacle queries. Obstacle terms are not Rayleigh-β
+    /// damped. Errors (and adds nothing) if an obstacle is invalid.
+    pub fn add_obstacles(
+        &mut self,
+        obstacles: &[crate::forces::obstacle::Obstacle],
+    ) -> Result<(), SimError> {
+        if obstacles.is_empty() {
+            return Ok(());
+        }
+        let terms =
+            crate::forces::obstacle_terms(&self.topology, &self.dofs, &self.params, obstacles)
+                .map_err(SimError::Invalid)?;
+        // Inserted at the end of the elastic terms: the indices of the elastic terms
+        // (wrapping ramp, damped terms) stay valid; inertia and damping terms shift.
+        let at = self.n_static;
+        self.n_static += terms.len();
+        self.potential.terms.splice(at..at, terms);
+        self.solver = None; // new stencils, new pattern
+        Ok(())
     }
 
     /// Holds the positions of `nodes` fixed (Dirichlet DOFs) from now on.
@@ -285,25 +400,31 @@ impl Simulator {
 
     /// Static equilibrium under the current pins: minimizes the potential of the elastic
     /// terms and gravity (no inertia, no damping) from the current state with
-    /// [`StepSettings::newton`] (iteration limit raised to 200), sets the velocities to zero,
-    /// and then updates the friction anchors (Eq. 5) as a step would. For quasi-static
-    /// loading (driven clamps). Needs pins that remove the rigid motions; time does not
-    /// advance, and the wrapping rest angles are those of the ramp at the current time
-    /// ([`StepSettings::wrapping_ramp_time`]).
+    /// [`StepSettings::newton`] (iteration limit raised to 200, always iterated to
+    /// convergence with a line search), sets the velocities to zero, and then updates the
+    /// friction anchors (Eq. 5) as a step would. For quasi-static loading (driven clamps).
+    /// Needs pins that remove the rigid motions; time does not advance, and the wrapping rest
+    /// angles are those of the ramp at the current time ([`StepSettings::wrapping_ramp_time`]).
     pub fn solve_static(&mut self) -> Result<NewtonReport, SimError> {
         self.apply_wrapping_ramp(self.time);
-        let potential = Potential::new(self.dofs.n_dofs(), self.static_terms().to_vec())
-            .map_err(SimError::Invalid)?;
+        // Always a full Newton solve (with line search, to convergence), even when the
+        // steps are linearized; the linear solver is the steps' one.
         let settings = NewtonSettings {
             max_iterations: 200,
+            line_search: true,
+            accept_iteration_limit: false,
             ..self.settings.newton.clone()
         };
         let mut q = self.state.q.clone();
+        let potential = Potential::new(self.dofs.n_dofs(), self.static_terms().to_vec())
+            .map_err(SimError::Invalid)?;
         let report = solver::minimize(&potential, &mut q, &self.fixed, &settings)?;
-        let max_force = self.params.friction_max_force;
+        // No time lag in a static solve: the anchors are checked against the compression
+        // of the equilibrium they are checked at.
+        let limits = self.slip_limits(&q)?;
         for term in &mut self.potential.terms[..self.n_static] {
             if let Term::Friction(spring, d) = term {
-                spring.update_anchor(q[d[0]], max_force);
+                spring.update_anchor(q[d[0]], limits[d[0]]);
             }
         }
         self.state.q = q;
@@ -357,6 +478,7 @@ impl Simulator {
             last_newton: None,
             setup_seconds: 0.0,
             newton_seconds: 0.0,
+            linear_iterations: 0,
         };
         self.advance(self.settings.dt, 0, &mut report)?;
         Ok(report)
@@ -400,37 +522,58 @@ impl Simulator {
     /// One backward Euler step of length `h`; commits the state only on success.
     fn solve_step(&mut self, h: f64, report: &mut StepReport) -> Result<(), SimError> {
         let setup_start = std::time::Instant::now();
+        // Lagged Coulomb bound (Eq. 5): the compression of the state at the start of the step.
+        let limits = self.slip_limits(&self.state.q)?;
         self.apply_wrapping_ramp(self.time + h);
         let (alpha, beta) = (self.settings.rayleigh_alpha, self.settings.rayleigh_beta);
         let qn = self.state.q.clone();
-        let q_hat: Vec<f64> = qn
-            .iter()
-            .zip(&self.state.v)
-            .map(|(q, v)| q + h * v)
-            .collect();
+        let v = &self.state.v;
         let rho = self.params.linear_density;
         let inertia_scale = 1.0 / (h * h) + alpha / h;
-        for (s, d) in self.segment_dofs.iter().enumerate() {
-            let local = gather(&qn, d);
-            if let Term::Inertia(form, _) = &mut self.potential.terms[self.n_static + s] {
-                form.center = (gather(&q_hat, d) + alpha * h * local) / (1.0 + alpha * h);
-                form.matrix = inertia_scale * segment_mass_matrix(rho, &local);
-            }
-        }
-        let first_damping = self.n_static + self.segment_dofs.len();
-        let (elastic, rest) = self.potential.terms.split_at_mut(first_damping);
-        // Independent per term (each writes only its own damping form), so in parallel; the
-        // per-stencil eigen-projections made this the larger part of a small swatch's step.
+        let (elastic, rest) = self.potential.terms.split_at_mut(self.n_static);
+        let (inertia, damping) = rest.split_at_mut(self.segment_dofs.len());
+        // Every form below is independent of the others (each task writes only its own
+        // form), so they are built in parallel; the results do not depend on the threads.
+        inertia
+            .par_iter_mut()
+            .zip(self.segment_dofs.par_iter())
+            .for_each(|(term, d)| {
+                if let Term::Inertia(form, _) = term {
+                    let local = gather(&qn, d);
+                    let q_hat = local + h * gather(v, d); // q̂ = qₙ + h vₙ
+                    form.center = (q_hat + alpha * h * local) / (1.0 + alpha * h);
+                    form.matrix = inertia_scale * segment_mass_matrix(rho, &local);
+                }
+            });
+        // Rayleigh β forms: the per-stencil eigen-projections of K⁺ are the larger part of
+        // the setup, so with `damping_refresh_steps > 1` they are only recomputed every so
+        // many steps; in between the lagged matrices are rescaled to the current β/h and
+        // recentred at qₙ.
+        let factor = beta / h;
+        let refresh = self
+            .damping_built
+            .is_none_or(|(uses, _)| uses >= self.settings.damping_refresh_steps);
+        let rescale = match self.damping_built {
+            Some((_, built)) if !refresh && built != factor && built > 0.0 => Some(factor / built),
+            _ => None,
+        };
         let elastic: &[Term] = elastic;
-        rest.par_iter_mut()
+        damping
+            .par_iter_mut()
             .zip(self.damped.par_iter())
             .for_each(|(target, &k)| {
-                let updated = elastic[k].update_damping_form(&qn, beta / h, target);
-                debug_assert!(
-                    updated,
-                    "damping term {k} out of step with its elastic term"
-                );
+                if refresh || !recentre_damping_form(target, &qn, rescale) {
+                    let updated = elastic[k].update_damping_form(&qn, factor, target);
+                    debug_assert!(
+                        updated,
+                        "damping term {k} out of step with its elastic term"
+                    );
+                }
             });
+        self.damping_built = Some(match self.damping_built {
+            Some((uses, _)) if !refresh => (uses + 1, factor),
+            _ => (1, factor),
+        });
         if self.solver.is_none() {
             self.solver = Some(NewtonSolver::new(&self.potential, &self.fixed)?);
         }
@@ -448,18 +591,64 @@ impl Simulator {
                 (q[i] - qn[i]) / h
             };
         }
-        let max_force = self.params.friction_max_force;
         for term in &mut self.potential.terms[..self.n_static] {
             if let Term::Friction(spring, d) = term {
-                report.slipped += usize::from(spring.update_anchor(q[d[0]], max_force));
+                report.slipped += usize::from(spring.update_anchor(q[d[0]], limits[d[0]]));
             }
         }
         self.state.q = q;
         self.time += h;
         report.substeps += 1;
         report.newton_iterations += newton.iterations;
+        report.linear_iterations += newton.linear_iterations.iter().sum::<usize>();
         report.last_newton = Some(newton);
         Ok(())
+    }
+
+    /// Slip force (N) of every DOF for the friction anchors (Eq. 5): the constant
+    /// [`YarnParams::friction_max_force`] if set, else `μ λ` from the compression estimate at
+    /// `q` ([`crate::forces::compression`]).
+    fn slip_limits(&self, q: &[f64]) -> Result<Vec<f64>, SimError> {
+        if let Some(f) = self.params.friction_max_force {
+            return Ok(vec![f; self.dofs.n_dofs()]);
+        }
+        let Some(estimator) = &self.compression else {
+            return Ok(vec![0.0; self.dofs.n_dofs()]);
+        };
+        let c = &self.params.compression;
+        let estimates = estimator
+            .estimate(self.static_terms(), q, &self.dofs, self.params.radius, c)
+            .map_err(|e| SimError::Invalid(e.to_string()))?;
+        Ok(slip_forces(
+            &estimates,
+            &self.dofs,
+            self.params.friction_coefficient,
+            c.solver,
+        ))
+    }
+
+    /// The compression (Eqs. 3–4, both solvers) at every stacked node at the current state,
+    /// with the current force terms. Errors if the topology has no compression rule (see
+    /// [`CompressionEstimator::new`]) or the estimate fails.
+    pub fn compression(&self) -> Result<Vec<NodeCompression>, SimError> {
+        let built;
+        let estimator = match &self.compression {
+            Some(e) => e,
+            None => {
+                built = CompressionEstimator::new(&self.topology, &self.dofs)
+                    .map_err(|e| SimError::Invalid(e.to_string()))?;
+                &built
+            }
+        };
+        estimator
+            .estimate(
+                self.static_terms(),
+                &self.state.q,
+                &self.dofs,
+                self.params.radius,
+                &self.params.compression,
+            )
+            .map_err(|e| SimError::Invalid(e.to_string()))
     }
 
     /// Kinetic energy `½ q̇ᵀ M(q) q̇` (J).

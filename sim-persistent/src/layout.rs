@@ -14,8 +14,8 @@
 //! **Weaves.** Crossing `(i, j)` sits at `(i w, j w, 0)`: `w` is the yarn spacing.
 //!
 //! **Sliding coordinates** start as the arc length of the polyline from the yarn's first node
-//! (m), so every segment starts at its rest length (zero stretch). Bending is not at rest:
-//! rest-shape bending compensation (§4.1, relaxing a characteristic rectangle) is future work.
+//! (m), so every segment starts at its rest length (zero stretch). Bending is not at rest;
+//! [`crate::rest_shape`] builds layouts from a relaxed characteristic rectangle instead (§4.1).
 //! Nor is stitch wrapping: the stitch contacts start unwrapped (ψ ≈ 0), and the simulator
 //! ramps the wrapping rest angles in ([`crate::forces::wrapping`]).
 

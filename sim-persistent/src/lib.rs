@@ -13,21 +13,25 @@
 //! | [`layout`] | initial positions and sliding coordinates from the chart | seed 000 §4.1 |
 //! | [`params`] | yarn parameters, Table 1 presets | seed 000 Table 1 |
 //! | [`state`] | generalized coordinates, DOF map, state-dependent segment mass matrix | seed 000 §3.2, physics notes |
-//! | [`forces`] | gravity, stretch, bending with jamming (Eq. 1), stitch-contact length (Eq. 6), sliding friction (Eq. 5, constant slip force), inertia and damping forms; the summed [`forces::Potential`]; stitch-wrapping stencil (Eq. 2, not assembled yet); compression solvers (Eqs. 3–4, closed form and exact NNLS) | seed 000 §4 |
+//! | [`forces`] | gravity, stretch, bending with jamming (Eq. 1), stitch wrapping (Eq. 2, Eqs. 7–13), stitch-contact length (Eq. 6), compression estimation at contact nodes (Eqs. 3–4, closed form and exact NNLS), sliding friction with anchored springs and the Coulomb bound μλ (Eq. 5), contact between adjacent loops (off by default), weave crossing shear with jamming, sphere and plane obstacles, inertia and Rayleigh damping forms; the summed [`forces::Potential`] | seed 000 §4, ref. 6 |
 //! | [`measure`] | edge curl and side-to-side width of knit swatches | seed 000 §3.1, §5.2.2, Figs. 5, 7 |
-//! | [`scene`] | TOML scene files (pattern, Table 1 preset + overrides, damping, force terms, clamps with drivers) and OBJ yarn-curve output; the `sim-persistent run` binary | issue 6 |
-//! | [`integrator`] | backward Euler as one Newton minimization per step (step halving on failure), Rayleigh damping, pinned and driven nodes, static equilibrium for quasi-static loading, clamp forces, per-term energies | seed 000 §4, §5 |
+//! | [`rest_shape`] | rest-shape bending compensation: repeat detection, relaxed characteristic rectangle, loop shapes applied to the whole chart | seed 000 §4.1, Fig. 6 |
+//! | [`scene`] | TOML scene files (knit or woven pattern, Table 1 preset + overrides, damping, force terms, crossing shear, obstacles, clamps with drivers, outputs); the `sim-persistent run` binary | issue 6 |
+//! | [`output`] | smooth rendering curves (per-node plane normals fitted by SVD, ±R yarn offsets, centripetal Catmull-Rom); OBJ, PLY, `.bcc` and PNG frame writers | seed 000 §3.2 |
+//! | [`integrator`] | backward Euler as one Newton minimization per step (step halving on failure) or linearized (one Newton step), sparse Cholesky or preconditioned CG, Rayleigh damping, pinned and driven nodes, obstacles, static equilibrium for quasi-static loading, clamp forces, per-term energies | seed 000 §4, §5 |
 //!
 //! Typical use: [`chart::Chart`] → [`topology::Topology::knit`] → [`layout::Layout::new`] →
 //! [`integrator::Simulator::new`] → [`integrator::Simulator::step`].
 //!
-//! Status: first slice of the `sim-persistent` issue, with stitch wrapping (Eq. 2) assembled
-//! for knits (rest angles ramped in from the flat layout, [`integrator::StepSettings`]). Not
-//! yet implemented: compression estimation at simulated nodes (so friction uses a constant
-//! slip force instead of μλ), stacked stitches and the reserved chart stitches, row-end
-//! turns of a continuous yarn, rest-shape bending compensation, contact between adjacent
-//! loops, weave crossing shear/jamming, obstacles, weaves and obstacles in scene files,
-//! smooth rendering curves, PLY/`.bcc`/PNG output and the figures.
+//! Figures (`bench`): `rib-stretch` (Fig. 11, guarded reference curve), `curl` (Figs. 5, 7),
+//! `plasticity` (Fig. 9), `patterns-on-sphere` (Fig. 12) and `persistent-time-vs-error`.
+//!
+//! Not implemented: stacked stitches and the reserved chart stitches (YO, K2TOG, SSK, M1),
+//! so the parallel-stack friction spring of Eq. 5; row-end turns of a continuous yarn;
+//! contact breaking (pull-out, Fig. 13). Known limits, measured: friction depends on the time
+//! step ([`forces::friction`], `persistent-time-vs-error`); garter is flat only in its
+//! interior (below); the rest-shape compensation of [`rest_shape`] does not yet start
+//! layouts closer to rest than the flat layout (measured there).
 //!
 //! **Curl of free swatches (measured, `tests/curl.rs`).** With the Table 1 sweater yarn the
 //! model reproduces the senses of stockinette curl — side edges roll to the back, cast-on and
@@ -35,18 +39,24 @@
 //! sides −4.2 rad, ends +0.5/+1.3; 4 × 8: ends +4.8/+5.1, sides ≈ 0; 4 × 4: sides −2.8, ends
 //! +1.5/+1.3), and the rolls are tight (radius of a few mm: wrapping, `k_w L ≈ 7.5e-6 J`
 //! per rad², dominates bending until jamming). Rib 2 × 2 compresses to 0.56 of its laid-out
-//! width. Garter is not flat: its side edges roll ≈ 1.2–1.3 rad to the front (8 × 5), about
-//! a third of stockinette's side curl. In the settled swatches 20–35 % of the wrapping pairs
-//! have a wing within ≈ 6° of the contact axis (see [`forces::wrapping`], "Degenerate
-//! wings"): the frustrated contacts escape their wrapping energy that way, which the
-//! missing contact between adjacent loops would probably prevent.
+//! width. Garter is flat only in its interior: the side curl measured along each row
+//! boundary of an 8 × 9 garter is S-shaped (+0.40, +0.18, +0.12, +0.06, 0.00, −0.09, −0.19,
+//! −0.88, −1.67, +2.16 rad from cast-on to bind-off), so the side edges of 8 × 5 roll
+//! ≈ +1.2–1.3 rad in all, about a third of stockinette's. The interior row boundaries let
+//! 40–50 % of their wrapping pairs collapse a wing onto the contact axis (see
+//! [`forces::wrapping`], "Degenerate wings"), the ones next to the edges only 15–20 %, so
+//! the alternating wrapping moments do not cancel there. Contact between adjacent loops
+//! ([`forces::loop_contact`]) reduces garter's edge roll (+0.45/+0.86) but also
+//! stockinette's side curl (to −2.1/−0.7), so it is off by default.
 
 pub mod chart;
 pub mod forces;
 pub mod integrator;
 pub mod layout;
 pub mod measure;
+pub mod output;
 pub mod params;
+pub mod rest_shape;
 pub mod scene;
 pub mod state;
 pub mod topology;

@@ -1,5 +1,7 @@
 //! `sim-persistent`: run a TOML scene (see the library's `scene` module for the schema) and
-//! write the yarn curves as OBJ polylines, one file per output frame.
+//! write the yarn rendering curves in the formats of its `[output]` section (OBJ, PLY, `.bcc`,
+//! PNG; see the `output` module), one file per format and output frame:
+//! `DIR/frame_NNNNN.<ext>`, frame 0 being the initial state.
 //!
 //! ```text
 //! sim-persistent run scene.toml              # frames in scene-out/ beside the scene file
@@ -12,7 +14,8 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 
-use sim_persistent::scene::{Scene, write_obj};
+use sim_persistent::output::FrameWriter;
+use sim_persistent::scene::Scene;
 
 #[derive(Parser)]
 #[command(
@@ -27,7 +30,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Simulate a scene and write OBJ frames.
+    /// Simulate a scene and write its output frames.
     Run {
         /// The scene file (TOML).
         scene: PathBuf,
@@ -53,14 +56,16 @@ fn run(path: PathBuf, out: Option<PathBuf>) -> Result<()> {
     });
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let mut run = scene.build()?;
+    let (params, ..) = scene.yarn()?;
+    let mut writer = FrameWriter::new(&out, &scene.output, params.radius)?;
+    let every = scene.frame_every();
     let start = Instant::now();
-    write_obj(&run.sim, &out, 0)?;
-    let mut frame = 1;
+    let mut written = writer.write(&run.sim)?;
+    let first = written.clone();
     for k in 1..=scene.steps {
         run.step().with_context(|| format!("step {k}"))?;
-        if k % scene.output_every == 0 {
-            write_obj(&run.sim, &out, frame)?;
-            frame += 1;
+        if k % every == 0 {
+            written = writer.write(&run.sim)?;
             eprintln!(
                 "step {k}/{}: t = {:.4} s, kinetic {:.3e} J, potential {:.3e} J, {:.1} s",
                 scene.steps,
@@ -71,6 +76,18 @@ fn run(path: PathBuf, out: Option<PathBuf>) -> Result<()> {
             );
         }
     }
-    eprintln!("{frame} frames in {}", out.display());
+    println!(
+        "{} frames ({:?}, every {every} steps) in {}",
+        writer.frames_written(),
+        scene.output.formats,
+        out.display()
+    );
+    for p in first.iter().chain(if written == first {
+        &[][..]
+    } else {
+        &written[..]
+    }) {
+        println!("  {}", p.display());
+    }
     Ok(())
 }

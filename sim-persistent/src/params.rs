@@ -3,6 +3,37 @@
 use rod::bending::Jamming;
 use rod::geometry::V3;
 
+/// Which solver gives λ from Eq. 3 ([`crate::forces::compression::CompressionSystem`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CompressionSolver {
+    /// The paper's closed form, Eq. 4 (exact for two yarns, which is every node of the
+    /// current knit and weave topologies).
+    #[default]
+    ClosedForm,
+    /// The exact non-negative least-squares minimizer of `½ fᵀf`.
+    Nnls,
+}
+
+/// Settings of the compression estimate at contact nodes (seed 000 §4.3).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CompressionSettings {
+    /// Eq. 4 or exact NNLS. Default: Eq. 4 (the paper's).
+    pub solver: CompressionSolver,
+    /// Whether the stretch forces of Eq. 3 are evaluated with each yarn's node offset by
+    /// one yarn radius along the contact normal (the paper's crimp offset, §4.3: "we offset
+    /// nodes along the contact normal"). Default `true`.
+    pub crimp_offset: bool,
+}
+
+impl Default for CompressionSettings {
+    fn default() -> Self {
+        Self {
+            solver: CompressionSolver::ClosedForm,
+            crimp_offset: true,
+        }
+    }
+}
+
 /// Mechanical parameters of a yarn (SI units). Quantities the paper does not give are marked
 /// as such, with the reason for the default.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -25,11 +56,16 @@ pub struct YarnParams {
     /// Stick stiffness `k_f` of the friction springs of Eq. 5 (N/m). Not in the paper;
     /// default `k_s / R`, the axial stiffness of a yarn piece one radius long.
     pub friction_stiffness: f64,
-    /// Slip force `F_max` of Eq. 5 (N). The paper uses `μ λ` (μ = 0.3, Table 1) with the
-    /// compression λ of Eqs. 3–4, which is not implemented yet; this constant stands in for
-    /// it. Default `1e-3 N`, the order of the bending forces in a relaxed swatch of the
-    /// Table 1 yarns.
-    pub friction_max_force: f64,
+    /// Friction coefficient μ of Eq. 5 (unitless): a sliding coordinate slips when its
+    /// spring force exceeds `μ λ`, λ the compression of its contacts (Eqs. 3–4,
+    /// [`crate::forces::compression`]). Table 1: 0.3 for all three garments (the default).
+    pub friction_coefficient: f64,
+    /// A constant slip force `F_max` (N) instead of `μ λ`: `None` (default) uses the
+    /// compression estimate, `Some(F)` the behaviour of the first slice of the simulator
+    /// (every free sliding coordinate slips at `F`, whatever the compression).
+    pub friction_max_force: Option<f64>,
+    /// How the compression λ of Eqs. 3–4 is estimated for the Coulomb bound `μ λ`.
+    pub compression: CompressionSettings,
     /// Stitch-wrapping stiffness `k_w` of Eq. 2 (N). Table 1: 1e-2 for all three garments,
     /// labelled Pa; Eq. 2 (`V = ½ k_w L (ψ − ψ₀)²` with `L` in m) needs N for `V` in J, so
     /// the Table 1 number is read as N (no `π R²` factor: the paper gives none for `k_w`).
@@ -39,6 +75,12 @@ pub struct YarnParams {
     /// contact (knit or purl, left or right leg) is set by
     /// [`crate::forces::wrapping::rest_angle_sign`].
     pub wrapping_rest_angle: f64,
+    /// Stiffness `k_c` of the contact between adjacent loops
+    /// ([`crate::forces::loop_contact`], `V = k_c/3 (2R − d)³`, N/m²). Not in the paper;
+    /// default `0.1 k_s/R²`: a penetration of 5 % of the contact distance 2R (0.1 R) then
+    /// pushes back with `1e-3 k_s` (18 mN for the Table 1 sweater yarn), ten times the
+    /// typical yarn forces of a relaxed swatch, while the onset stays soft for Newton.
+    pub loop_contact_stiffness: f64,
     /// Gravity acceleration (m/s²). Default `(0, −9.81, 0)`: the fabric's y axis (wale
     /// direction of knits) points up.
     pub gravity: V3,
@@ -56,9 +98,12 @@ impl YarnParams {
             jamming: Jamming::default(),
             stitch_length_stiffness: young_modulus * area,
             friction_stiffness: young_modulus * area / radius,
-            friction_max_force: 1e-3,
+            friction_coefficient: 0.3,
+            friction_max_force: None,
+            compression: CompressionSettings::default(),
             wrapping_stiffness: 1e-2,
             wrapping_rest_angle: std::f64::consts::FRAC_PI_2,
+            loop_contact_stiffness: 0.1 * young_modulus * area / (radius * radius),
             gravity: V3::new(0.0, -9.81, 0.0),
         }
     }
@@ -104,8 +149,10 @@ impl YarnParams {
             ("bending_modulus", self.bending_modulus),
             ("stitch_length_stiffness", self.stitch_length_stiffness),
             ("friction_stiffness", self.friction_stiffness),
-            ("friction_max_force", self.friction_max_force),
+            ("friction_coefficient", self.friction_coefficient),
+            ("friction_max_force", self.friction_max_force.unwrap_or(0.0)),
             ("wrapping_stiffness", self.wrapping_stiffness),
+            ("loop_contact_stiffness", self.loop_contact_stiffness),
         ];
         for (name, v) in nonneg {
             if !(v.is_finite() && v >= 0.0) {

@@ -1,9 +1,16 @@
 //! Compression estimation (seed 000 Eqs. 3–4): the paper's closed form against the exact
-//! non-negative least-squares solution, on seeded random stacks.
+//! non-negative least-squares solution, on seeded random stacks and at the nodes of a
+//! settled swatch.
 
 use nalgebra::DVector;
 use rod::geometry::V3;
+use sim_persistent::chart::Chart;
+use sim_persistent::forces::ForceSet;
 use sim_persistent::forces::compression::{CompressionError, CompressionSystem};
+use sim_persistent::integrator::{Simulator, StepSettings};
+use sim_persistent::layout::{Layout, LayoutParams};
+use sim_persistent::params::{CompressionSolver, YarnParams};
+use sim_persistent::topology::Topology;
 
 /// xorshift64*: a fixed-seed generator for the random stacks (no clock).
 struct Rng(u64);
@@ -113,4 +120,147 @@ fn invalid_stacks_are_errors() {
     assert!(CompressionSystem::new(&[V3::zeros()], &[V3::zeros(), V3::zeros()]).is_err());
     // Opposite normals leave the middle yarn without a compression direction.
     assert!(CompressionSystem::new(&[V3::z(), -V3::z()], &[V3::zeros(); 3]).is_err());
+}
+
+/// When no non-negativity constraint is active at the optimum (every λ > 0 and `f = 0`:
+/// stacks built from a positive λ), NNLS recovers λ exactly and Eq. 4 agrees with it
+/// wherever its own clip `max(0, −Aᵀb)` is inactive too (`−Aᵀb = AᵀA λ ≥ 0`). For 3 to 5
+/// yarns with tilted normals `AᵀA λ` can have negative entries although λ > 0 (its
+/// off-diagonal entries are negative); Eq. 4 then clips a component the optimum does not,
+/// and misses it (counted and printed).
+#[test]
+fn closed_form_matches_nnls_when_no_constraint_is_active() {
+    let mut rng = Rng(0x5eed_0005);
+    for n in 2..=5 {
+        let (mut agree, mut clipped) = (0usize, 0usize);
+        for _ in 0..500 {
+            let normals: Vec<V3> = (0..n - 1).map(|_| V3::z() + rng.v3(0.4)).collect();
+            let lambda = DVector::from_fn(n - 1, |_, _| 1e-3 * (1.0 + rng.uniform()));
+            // Forces along each compression direction that balance λ exactly, plus a
+            // tangential part that Eq. 3 does not see.
+            let probe = CompressionSystem::new(&normals, &vec![V3::zeros(); n]).unwrap();
+            let units: Vec<V3> = (0..n)
+                .map(|i| {
+                    let below = if i > 0 {
+                        normals[i - 1].normalize()
+                    } else {
+                        V3::zeros()
+                    };
+                    let above = if i < n - 1 {
+                        normals[i].normalize()
+                    } else {
+                        V3::zeros()
+                    };
+                    (below + above).normalize()
+                })
+                .collect();
+            let b = -(&probe.a * &lambda);
+            let forces: Vec<V3> = (0..n)
+                .map(|i| {
+                    let t = rng.v3(1e-3);
+                    units[i] * b[i] + (t - units[i] * units[i].dot(&t))
+                })
+                .collect();
+            let sys = CompressionSystem::new(&normals, &forces).unwrap();
+            let exact = sys.nnls();
+            assert!(
+                (&exact - &lambda).amax() < 1e-12,
+                "NNLS {exact} vs λ {lambda}"
+            );
+            let clip_inactive = (-(sys.a.transpose() * &sys.b)).iter().all(|v| *v >= 0.0);
+            let closed = sys.closed_form().unwrap();
+            if clip_inactive {
+                agree += 1;
+                assert!((&closed - &exact).amax() < 1e-12, "{closed} vs {exact}");
+            } else {
+                clipped += 1;
+                assert!(
+                    (&closed - &exact).amax() > 1e-9,
+                    "a clipped Eq. 4 must differ"
+                );
+            }
+        }
+        eprintln!(
+            "{n} yarns, all λ > 0: Eq. 4 = NNLS in {agree}/500, clips (and differs) in {clipped}"
+        );
+        assert!(agree > 0);
+        if n == 2 {
+            assert_eq!(clipped, 0, "two yarns never clip a positive λ");
+        }
+    }
+}
+
+/// A free 4 × 4 stockinette settled for 0.2 s (as in the curl tests: Table 1 sweater
+/// yarn, no gravity, α = 10/s, wrapping ramped in over 0.1 s), friction bounded by μλ with
+/// `solver`. Returns the simulator and the number of slips.
+fn settled_stockinette(solver: CompressionSolver) -> (Simulator, usize) {
+    let chart = Chart::stockinette(4, 4).unwrap();
+    let topo = Topology::knit(&chart);
+    let mut params = YarnParams::sweater();
+    params.gravity *= 0.0;
+    params.compression.solver = solver;
+    let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).unwrap();
+    let mut settings = StepSettings {
+        rayleigh_alpha: 10.0,
+        ..StepSettings::default()
+    };
+    settings.newton.gradient_abs_tol = 1e-7;
+    let forces = ForceSet {
+        gravity: false,
+        ..ForceSet::default()
+    };
+    let mut sim = Simulator::new(topo, &layout, params, forces, settings).unwrap();
+    let mut slipped = 0;
+    for _ in 0..200 {
+        slipped += sim.step().unwrap().slipped;
+    }
+    (sim, slipped)
+}
+
+/// On a settled free stockinette every stacked node has two yarns, where Eq. 4 is exact:
+/// it gives the NNLS λ to rounding at every node, and a run with the NNLS solver selected
+/// ends in the same state. At least a quarter of the contacts are compressed (in the
+/// wrapped swatch the rest are loose, λ = 0: their yarns pull apart along the normal, and
+/// friction vanishes there, §6 "inter-yarn separation").
+#[test]
+fn settled_swatch_closed_form_equals_nnls() {
+    let ((sim, slipped), (exact, _)) = std::thread::scope(|scope| {
+        let a = scope.spawn(|| settled_stockinette(CompressionSolver::ClosedForm));
+        let b = settled_stockinette(CompressionSolver::Nnls);
+        (a.join().unwrap(), b)
+    });
+    let est = sim.compression().unwrap();
+    assert_eq!(
+        est.len(),
+        48,
+        "two stacked nodes per stitch contact, 24 contacts"
+    );
+    let (mut max_diff, mut max_lambda, mut sum, mut positive) = (0.0f64, 0.0f64, 0.0, 0);
+    for e in &est {
+        assert_eq!(e.forces.len(), 2);
+        let (c, x) = (e.closed_form[0], e.nnls[0]);
+        max_diff = max_diff.max((c - x).abs());
+        max_lambda = max_lambda.max(x);
+        sum += x;
+        positive += usize::from(x > 0.0);
+    }
+    let state_diff = sim
+        .state()
+        .q
+        .iter()
+        .zip(&exact.state().q)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    eprintln!(
+        "settled stockinette 4×4: λ mean {:.3e} N, max {max_lambda:.3e} N, > 0 at {positive}/{} \
+         nodes; max |Eq. 4 − NNLS| {max_diff:.1e} N; {slipped} slips in 200 steps; max state \
+         difference of the NNLS run {state_diff:.1e}",
+        sum / est.len() as f64,
+        est.len()
+    );
+    assert!(
+        max_diff <= 1e-14 * max_lambda,
+        "{max_diff:e} vs {max_lambda:e}"
+    );
+    assert!(4 * positive >= est.len(), "{positive} of {}", est.len());
+    assert!(state_diff <= 1e-12, "{state_diff:e}");
 }

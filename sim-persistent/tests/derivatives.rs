@@ -82,7 +82,7 @@ proptest! {
 
     #[test]
     fn friction_anchored_spring_eq5(u in -L..L, anchor in -L..L, k in 1.0..1e5f64) {
-        let s = AnchoredSpring { stiffness: k, anchor };
+        let s = AnchoredSpring::new(k, anchor);
         assert_stencil_derivatives(&s, &pack::<1>(&[&[u]]), L);
     }
 
@@ -194,10 +194,7 @@ fn wrapping_pairs_of_a_knit() {
 
 #[test]
 fn friction_slip_moves_the_anchor_to_the_maximal_stick_position() {
-    let mut s = AnchoredSpring {
-        stiffness: 1e3,
-        anchor: 0.0,
-    };
+    let mut s = AnchoredSpring::new(1e3, 0.0);
     // Stick: force 0.5 mN ≤ 1 mN.
     assert!(!s.update_anchor(0.5e-6, 1e-3));
     assert_eq!(s.anchor, 0.0);

@@ -1,6 +1,8 @@
-//! Scene files: a full scene parses, builds and runs with driven clamps and OBJ output;
-//! unknown keys and wrong types fail with the line and column of the offending text.
+//! Scene files: a full scene parses, builds and runs with driven clamps and OBJ output; a
+//! woven scene writes every output format; unknown keys, wrong types and malformed
+//! `[output]` / `[pattern]` entries fail with the line of the offending text.
 
+use sim_persistent::output::{BccCurve, CurveOptions, FrameWriter, RenderCurves};
 use sim_persistent::scene::{Scene, SceneError, obj_text, write_obj};
 use std::path::Path;
 
@@ -97,8 +99,9 @@ fn unknown_key_names_line_and_column() {
     }
 }
 
-/// A value of the wrong type and malformed TOML are located too; a well-formed scene with an
-/// unknown builder, a missing size or a malformed chart is an `Invalid`/`Chart` error.
+/// A value of the wrong type and malformed TOML are located too; an inconsistent `[pattern]`
+/// (unknown builder, missing size, malformed chart) is a parse error at the `[pattern]`
+/// header (line 6); an unknown clamp edge is an `Invalid` error when building.
 #[test]
 fn bad_values_are_errors() {
     let text = SCENE.replace("width = 4", "width = \"four\"");
@@ -111,29 +114,212 @@ fn bad_values_are_errors() {
         parse(&text),
         Err(SceneError::Parse { line: 3, .. })
     ));
-    let text = SCENE.replace("\"rib\"", "\"cable\"");
-    assert!(matches!(
-        parse(&text).unwrap().build(),
-        Err(SceneError::Invalid(_))
-    ));
-    let text = SCENE.replace("width = 4\n", "");
-    assert!(matches!(
-        parse(&text).unwrap().build(),
-        Err(SceneError::Invalid(_))
-    ));
-    let text = SCENE.replace(
-        "builder = \"rib\"\nwidth = 4\nheight = 3\nrib = [1, 1]",
-        "chart = \"K4\\nP2 X2\"",
-    );
-    assert!(matches!(
-        parse(&text).unwrap().build(),
-        Err(SceneError::Chart(_))
-    ));
+    for (from, to, needle) in [
+        ("\"rib\"", "\"cable\"", "unknown builder \"cable\""),
+        ("width = 4\n", "", "needs `width` and `height`"),
+        (
+            "builder = \"rib\"\nwidth = 4\nheight = 3\nrib = [1, 1]",
+            "chart = \"K4\\nP2 X2\"",
+            "chart",
+        ),
+    ] {
+        assert_parse_error(&SCENE.replace(from, to), 6, needle);
+    }
     let text = SCENE.replace("edge = \"cast-on\"", "edge = \"side\"");
     assert!(matches!(
         parse(&text).unwrap().build(),
         Err(SceneError::Invalid(_))
     ));
+}
+
+/// Asserts that `text` fails to parse at `line` with a message containing `needle`.
+fn assert_parse_error(text: &str, line: usize, needle: &str) {
+    match parse(text) {
+        Err(SceneError::Parse {
+            line: l, message, ..
+        }) => {
+            assert_eq!(l, line, "{message}");
+            assert!(message.contains(needle), "{message:?} lacks {needle:?}");
+        }
+        other => panic!("expected a parse error at line {line}, got {other:?}"),
+    }
+}
+
+/// A 4 × 3 twill scene (lines 1–22) with every output format.
+const WEAVE: &str = r#"dt = 1e-3
+steps = 2
+
+[pattern]
+builder = "twill"
+warps = 4
+wefts = 3
+twill = [2, 1]
+
+[yarn]
+gravity = [0.0, -9.81, 0.0]
+
+[[clamp]]
+edge = "bind-off"
+
+[output]
+formats = ["obj", "ply", "bcc", "png", "nodes"]
+every = 1
+samples = 3
+png_size = [64, 48]
+view = "oblique"
+supersample = 1
+"#;
+
+/// Malformed `[output]` entries are parse errors at their line, naming the problem.
+#[test]
+fn malformed_output_entries_name_the_line() {
+    assert!(parse(WEAVE).is_ok());
+    for (from, to, line, needle) in [
+        (
+            "\"png\", \"nodes\"",
+            "\"jpg\", \"nodes\"",
+            17,
+            "unknown variant `jpg`",
+        ),
+        ("\"png\", \"nodes\"", "\"obj\"", 17, "listed twice"),
+        (
+            "[\"obj\", \"ply\", \"bcc\", \"png\", \"nodes\"]",
+            "[]",
+            17,
+            "at least one",
+        ),
+        ("every = 1", "every = 0", 18, "`every` must be ≥ 1"),
+        ("samples = 3", "samples = 0", 19, "`samples` must be 1"),
+        ("samples = 3", "samples = 1000", 19, "`samples` must be 1"),
+        ("png_size = [64, 48]", "png_size = [64, 0]", 20, "png_size"),
+        ("png_size = [64, 48]", "png_size = [64]", 20, ""),
+        (
+            "view = \"oblique\"",
+            "view = \"top\"",
+            21,
+            "unknown variant `top`",
+        ),
+        (
+            "supersample = 1",
+            "supersample = 9",
+            22,
+            "`supersample` must be 1",
+        ),
+        ("supersample = 1", "supersampel = 1", 22, "supersampel"),
+        ("samples = 3", "samples = \"many\"", 19, ""),
+        (
+            "steps = 2",
+            "steps = 2\noutput_every = 0",
+            3,
+            "`output_every` must be ≥ 1",
+        ),
+        // Both spellings of the frame interval: reported at `[output] every` (line 19).
+        ("steps = 2", "steps = 2\noutput_every = 2", 19, "not both"),
+    ] {
+        let text = WEAVE.replace(from, to);
+        assert_ne!(text, WEAVE, "{from}");
+        assert_parse_error(&text, line, needle);
+    }
+}
+
+/// Malformed woven `[pattern]` tables are parse errors at the `[pattern]` header (line 4).
+#[test]
+fn malformed_weave_patterns_name_the_line() {
+    for (from, to, needle) in [
+        ("warps = 4\n", "", "needs `warps` and `wefts`"),
+        ("warps = 4", "warps = 1", "≥ 2 warps"),
+        ("twill = [2, 1]", "twill = [0, 1]", "twill 0/1"),
+        ("twill = [2, 1]", "satin = [5, 2]", "`satin` only applies"),
+        ("twill = [2, 1]", "width = 4", "`width` does not apply"),
+        ("\"twill\"", "\"satin\"", "`twill` only applies"),
+        (
+            "\"twill\"\nwarps = 4\nwefts = 3\ntwill = [2, 1]",
+            "\"satin\"\nwarps = 4\nwefts = 3\nsatin = [6, 2]",
+            "satin 6/2",
+        ),
+        ("\"twill\"", "\"basket\"", "unknown builder \"basket\""),
+    ] {
+        let text = WEAVE.replace(from, to);
+        assert_ne!(text, WEAVE, "{from}");
+        assert_parse_error(&text, 4, needle);
+    }
+}
+
+/// The woven scene builds a twill (4 warps × 3 wefts: 12 crossing nodes, 7 yarns), pins its
+/// top weft, steps under gravity with finite states, and writes every format of every frame
+/// (the initial state and one per step): 3 frames × 5 files, with consistent contents.
+#[test]
+fn woven_scene_steps_and_writes_every_format() {
+    let scene = parse(WEAVE).unwrap();
+    assert_eq!(scene.frame_every(), 1);
+    let mut run = scene.build().unwrap();
+    let topo = run.sim.topology().clone();
+    assert_eq!((topo.nodes.len(), topo.yarns.len()), (12, 7));
+    assert_eq!(topo.crossings.len(), 12);
+    assert_eq!(run.clamps.len(), 1);
+    assert_eq!(run.clamps[0].0, vec![8, 9, 10, 11]);
+    let (params, ..) = scene.yarn().unwrap();
+    let dir = std::env::temp_dir().join(format!("sim-persistent-out-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut writer = FrameWriter::new(&dir, &scene.output, params.radius).unwrap();
+    let mut files = writer.write(&run.sim).unwrap();
+    let y0 = run.sim.dofs().position(&run.sim.state().q, 0).y;
+    for _ in 0..scene.steps {
+        run.step().unwrap();
+        files.extend(writer.write(&run.sim).unwrap());
+    }
+    let s = run.sim.state();
+    assert!(s.q.iter().chain(&s.v).all(|v| v.is_finite()));
+    assert!(
+        run.sim.dofs().position(&s.q, 0).y < y0,
+        "the free bottom weft falls"
+    );
+    assert_eq!(writer.frames_written(), 3);
+    assert_eq!(files.len(), 15);
+    for frame in 0..3 {
+        for ext in ["obj", "ply", "bcc", "png", "nodes.obj"] {
+            let path = dir.join(format!("frame_{frame:05}.{ext}"));
+            assert!(files.contains(&path), "{}", path.display());
+            let bytes = std::fs::read(&path).unwrap();
+            assert!(!bytes.is_empty(), "{}", path.display());
+        }
+    }
+    let last = |ext: &str| dir.join(format!("frame_00002.{ext}"));
+    let curves = RenderCurves::from_simulator(
+        &run.sim,
+        &CurveOptions {
+            radius: params.radius,
+            samples_per_segment: 3,
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        std::fs::read_to_string(last("obj")).unwrap(),
+        curves.obj_text()
+    );
+    assert_eq!(
+        std::fs::read_to_string(last("ply")).unwrap(),
+        curves.ply_text()
+    );
+    assert_eq!(
+        std::fs::read(last("bcc")).unwrap(),
+        curves.bcc_bytes(BccCurve::C0)
+    );
+    assert_eq!(
+        std::fs::read_to_string(last("nodes.obj")).unwrap(),
+        obj_text(&run.sim)
+    );
+    let png = std::fs::read(last("png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    assert_eq!(u32::from_be_bytes(png[16..20].try_into().unwrap()), 64);
+    // Samples: (passes − 1) · 3 + 1 per yarn.
+    let samples: usize = topo
+        .yarns
+        .iter()
+        .map(|y| (y.passes.len() - 1) * 3 + 1)
+        .sum();
+    assert_eq!(curves.sample_count(), samples);
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// The scene files shipped in `scenes/` parse and build.
@@ -144,4 +330,10 @@ fn shipped_scenes_are_valid() {
     let run = scene.build().unwrap();
     assert!(run.clamps.is_empty());
     assert_eq!(scene.steps, 300);
+    assert_eq!(scene.frame_every(), 10);
+    let text = include_str!("../scenes/twill-hanging.toml");
+    let scene = parse(text).unwrap();
+    let run = scene.build().unwrap();
+    assert_eq!(run.sim.topology().crossings.len(), 100);
+    assert_eq!(scene.output.formats.len(), 4);
 }

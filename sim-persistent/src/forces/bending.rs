@@ -5,8 +5,8 @@
 //! `k_b = B π R²`. For small angles `φ = θ²`; past θ = π/2 the stiffness grows smoothly by
 //! three orders of magnitude (bending jamming: loops of different rows touch). The stencil is
 //! `rod::bending::AngleBending` (DOFs `(x₀, u₀, x₁, u₁, x₂, u₂)`); this module builds it.
-//! The rest angle is zero: the paper's rest-shape bending compensation (relaxing a
-//! characteristic rectangle, §4.1) is not implemented yet.
+//! The rest angle is zero: the paper's rest-shape bending compensation (§4.1) changes the
+//! layout, not the bending rest shape ([`crate::rest_shape`]).
 
 use crate::params::YarnParams;
 use rod::bending::AngleBending;

@@ -22,11 +22,54 @@
 //! answer is a tiny non-negative least-squares problem, solved here by enumerating the
 //! active sets ([`CompressionSystem::nnls`]). Both are kept so they can be compared.
 //!
-//! Status: the solvers and the system of Eq. 3 are implemented and tested; estimating the
-//! normals (plane fit with crimp offsets) and gathering `Fᵢ` at the nodes of a running
-//! simulation, which would give friction its Coulomb bound `μ λ` (Eq. 5), is future work.
+//! **At the nodes of a simulation** ([`CompressionEstimator`]), for every node with `n ≥ 2`
+//! yarns (slots in [`crate::topology::Node::passes`] order, yarn `i` = slot `i`):
+//!
+//! - *Normals.* A plane is fitted to the node and its neighbours along all its yarns (the
+//!   eigenvector of the smallest eigenvalue of their covariance, §4.3). Its normal is
+//!   oriented towards the fabric's material front `ĉ × ŵ` (course direction × wale
+//!   direction at the node, from the neighbouring contacts; for a weave: weft direction ×
+//!   warp direction), and then `nᵢ = ±` that normal: `+` if yarn `i + 1` lies in front of
+//!   yarn `i`. Who lies in front is topology: at a weave crossing the warp iff
+//!   [`crate::topology::Crossing::warp_over`]; at a knit stitch contact the upper row's
+//!   yarn (the legs that were pulled through the loop below from the back) for a knit
+//!   stitch and the lower row's yarn (the head) for a purl (the purl is the knit seen from
+//!   the back). All `nᵢ` of a node are equal (one fitted plane), so `uᵢ = ±nᵢ`.
+//! - *Forces* `Fᵢ` (N): minus the position gradient, at the node, of the terms that belong
+//!   to yarn `i` — its stretch segments and its bending stencils, plus stitch wrapping for
+//!   knits (§4.3). A wrapping pair couples two yarns; its force on a node is given to the
+//!   yarn of the pair's wing that ends at that node (the wing `q₀q₄` carries the forces on
+//!   `q₀` and `q₄`, the wing `q₁q₃` those on `q₁` and `q₃`; [`super::wrapping`]). Gravity
+//!   is left out, as in the paper (stretch and bending, plus wrapping): the weight of the
+//!   yarn next to a node (`ρ g ℓ ≈ 5e-5 N` for the Table 1 sweater yarn and a 3 mm segment)
+//!   is not a contact force between the stacked yarns and is small against the ≈ 1 mN yarn
+//!   forces. Friction and stitch-length springs act on sliding coordinates only; other
+//!   terms (contact, obstacles, inertia, damping) are left out.
+//! - *Crimp offset* ([`crate::params::CompressionSettings::crimp_offset`]). "Due to yarn
+//!   volume, the central axes of yarns in contact are separated by a certain distance,
+//!   which is not present in our model […] we offset nodes along the contact normal"
+//!   (§4.3): for the stretch forces only, yarn `i` of an `n`-stack sits at
+//!   `x + R (2i − n + 1) n̂` (two yarns: `x ∓ R n̂`), at this node and at every stacked
+//!   neighbour. The offset turns the stretch force, not its magnitude: the tension
+//!   `T = ψ'(ε)` comes from the real segment, the direction from the offset one (offsetting
+//!   the nodes themselves would lengthen the segments and invent strain). A flat plain
+//!   weave under tension is then compressed, a slack one is not.
+//! - *Solve.* Eq. 3 for the stack, then Eq. 4 or NNLS
+//!   ([`crate::params::CompressionSettings::solver`]); both are always computed
+//!   ([`NodeCompression`]) so they can be compared. Every node of the current knit and
+//!   weave topologies has two yarns, where the two agree exactly.
+//! - *Slip force* of yarn `i`'s sliding coordinate: `μ (λᵢ₋₁ + λᵢ)`, the Coulomb bound of
+//!   the contacts that press on it (one contact for two yarns) — [`slip_forces`]. The
+//!   simulator evaluates it *lagged*, at the state at the start of each step
+//!   ([`crate::integrator`]).
 
-use nalgebra::{DMatrix, DVector};
+use crate::chart::Chart;
+use crate::forces::Term;
+use crate::params::{CompressionSettings, CompressionSolver};
+use crate::state::{DofMap, gather};
+use crate::topology::{FabricKind, Side, Topology, knit_node};
+use nalgebra::{DMatrix, DVector, Matrix3};
+use rod::Stencil;
 use rod::geometry::V3;
 
 /// Largest number of contacts in a stack that [`CompressionSystem::nnls`] enumerates
@@ -143,4 +186,359 @@ impl CompressionSystem {
         }
         best.1
     }
+}
+
+/// The compression at one stacked node, by both solvers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeCompression {
+    /// Node index.
+    pub node: usize,
+    /// Contact normals `nᵢ` (yarn `i` → `i + 1`, unit).
+    pub normals: Vec<V3>,
+    /// Yarn forces `Fᵢ` on the node (N), one per slot.
+    pub forces: Vec<V3>,
+    /// λ of Eq. 4 (N), one per contact.
+    pub closed_form: DVector<f64>,
+    /// λ of the exact NNLS (N), one per contact.
+    pub nnls: DVector<f64>,
+}
+
+impl NodeCompression {
+    /// λ (N) by `solver`.
+    pub fn lambda(&self, solver: CompressionSolver) -> &DVector<f64> {
+        match solver {
+            CompressionSolver::ClosedForm => &self.closed_form,
+            CompressionSolver::Nnls => &self.nnls,
+        }
+    }
+
+    /// The compression (N) pressing on the yarn of `slot`: `λᵢ₋₁ + λᵢ` (the contacts on
+    /// either side of it in the stack).
+    pub fn slot_compression(&self, slot: usize, solver: CompressionSolver) -> f64 {
+        let l = self.lambda(solver);
+        let below = if slot > 0 { l[slot - 1] } else { 0.0 };
+        let above = if slot < l.len() { l[slot] } else { 0.0 };
+        below + above
+    }
+}
+
+/// One stacked node of [`CompressionEstimator`].
+#[derive(Clone, Debug, PartialEq)]
+struct StackNode {
+    node: usize,
+    /// The plane-fit points besides the node: its neighbours along all its yarns.
+    neighbours: Vec<usize>,
+    /// Material front `(course₊, course₋, wale₊, wale₋)`: node sets whose centroid
+    /// differences give the course and wale directions.
+    front: [Vec<usize>; 4],
+    /// `+1` if yarn `i + 1` lies in front of yarn `i`, `−1` otherwise (per contact).
+    order: Vec<f64>,
+}
+
+/// Compression estimation at the stacked nodes of a fabric (module documentation).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CompressionEstimator {
+    stacks: Vec<StackNode>,
+    /// Index into `stacks` of every node (`None` for one-yarn nodes).
+    stack_of_node: Vec<Option<usize>>,
+    /// `(node, slot)` of every sliding-coordinate DOF, `node` of every position DOF
+    /// (`slot = usize::MAX`).
+    owner: Vec<(usize, usize)>,
+    /// Yarn of each `(node, slot)`: `topology.nodes[n].passes[s].yarn`, flattened per node.
+    yarn_slots: Vec<Vec<(usize, usize)>>,
+    /// Per yarn: its node sequence.
+    yarn_nodes: Vec<Vec<usize>>,
+}
+
+impl CompressionEstimator {
+    /// The stacked nodes of `topology` with their plane-fit neighbours, material-front
+    /// stencils and front/back order. Errors for nodes of more than two yarns in a knit or
+    /// weave topology without an order rule, or for a two-yarn node that is neither a
+    /// weave crossing nor on a stitch contact.
+    pub fn new(topology: &Topology, dofs: &DofMap) -> Result<Self, CompressionError> {
+        let bad = |s: String| Err(CompressionError::Invalid(s));
+        let mut owner = vec![(usize::MAX, usize::MAX); dofs.n_dofs()];
+        for (n, node) in topology.nodes.iter().enumerate() {
+            for k in 0..3 {
+                owner[dofs.x(n) + k] = (n, usize::MAX);
+            }
+            for s in 0..node.passes.len() {
+                owner[dofs.u(n, s)] = (n, s);
+            }
+        }
+        let yarn_nodes: Vec<Vec<usize>> = topology
+            .yarns
+            .iter()
+            .map(|y| y.passes.iter().map(|p| p.node).collect())
+            .collect();
+        let yarn_slots: Vec<Vec<(usize, usize)>> = topology
+            .nodes
+            .iter()
+            .map(|n| n.passes.iter().map(|p| (p.yarn, p.index)).collect())
+            .collect();
+        // Front/back order per stacked node from the topology.
+        let mut order: Vec<Option<f64>> = vec![None; topology.nodes.len()];
+        for c in &topology.crossings {
+            let passes = &topology.nodes[c.node].passes;
+            // Slot 0 is the weft (yarns 0..wefts), slot 1 the warp.
+            let warp_second = passes.len() == 2 && passes[1].yarn > passes[0].yarn;
+            let sign = if c.warp_over { 1.0 } else { -1.0 };
+            order[c.node] = Some(if warp_second { sign } else { -sign });
+        }
+        for sc in &topology.stitch_contacts {
+            let [upper, _] = sc.yarns;
+            for &n in &sc.nodes {
+                let passes = &topology.nodes[n].passes;
+                if passes.len() != 2 {
+                    continue;
+                }
+                let upper_second = passes[1].yarn == upper;
+                let s = sc.stitch.sign();
+                order[n] = Some(if upper_second { s } else { -s });
+            }
+        }
+        let mut stacks = Vec::new();
+        let mut stack_of_node = vec![None; topology.nodes.len()];
+        for (n, node) in topology.nodes.iter().enumerate() {
+            if node.passes.len() < 2 {
+                continue;
+            }
+            if node.passes.len() > 2 {
+                return bad(format!(
+                    "node {n} stacks {} yarns: no front/back order rule for stacks yet",
+                    node.passes.len()
+                ));
+            }
+            let Some(o) = order[n] else {
+                return bad(format!(
+                    "node {n} has two yarns but is neither a crossing nor a stitch-contact node"
+                ));
+            };
+            let mut neighbours = Vec::new();
+            for p in &node.passes {
+                let list = &yarn_nodes[p.yarn];
+                for j in [p.index.wrapping_sub(1), p.index + 1] {
+                    if let Some(&m) = list.get(j)
+                        && !neighbours.contains(&m)
+                    {
+                        neighbours.push(m);
+                    }
+                }
+            }
+            let front = front_stencil(topology, n)
+                .ok_or_else(|| CompressionError::Invalid(format!("node {n}: no material front")))?;
+            stack_of_node[n] = Some(stacks.len());
+            stacks.push(StackNode {
+                node: n,
+                neighbours,
+                front,
+                order: vec![o],
+            });
+        }
+        Ok(Self {
+            stacks,
+            stack_of_node,
+            owner,
+            yarn_slots,
+            yarn_nodes,
+        })
+    }
+
+    /// Number of stacked nodes.
+    pub fn n_stacks(&self) -> usize {
+        self.stacks.len()
+    }
+
+    /// The yarn joining nodes `a` and `b` by one segment, and its slots at `a` and `b`.
+    fn joining_yarn(&self, a: usize, b: usize) -> Option<(usize, usize)> {
+        for (sa, &(y, i)) in self.yarn_slots[a].iter().enumerate() {
+            let list = &self.yarn_nodes[y];
+            let next = list.get(i + 1) == Some(&b);
+            let prev = i > 0 && list[i - 1] == b;
+            if next || prev {
+                let j = if next { i + 1 } else { i - 1 };
+                let sb = self.yarn_slots[b].iter().position(|&p| p == (y, j))?;
+                return Some((sa, sb));
+            }
+        }
+        None
+    }
+
+    /// Compression at every stacked node at coordinates `q`, with the force terms `terms`
+    /// (normally the simulator's static terms), yarn radius `radius` (m; crimp offset).
+    pub fn estimate(
+        &self,
+        terms: &[Term],
+        q: &[f64],
+        dofs: &DofMap,
+        radius: f64,
+        settings: &CompressionSettings,
+    ) -> Result<Vec<NodeCompression>, CompressionError> {
+        let pos = |n: usize| dofs.position(q, n);
+        // Normals.
+        let normals: Vec<V3> = self
+            .stacks
+            .iter()
+            .map(|st| {
+                let mut pts = vec![pos(st.node)];
+                pts.extend(st.neighbours.iter().map(|&m| pos(m)));
+                let c = pts.iter().sum::<V3>() / pts.len() as f64;
+                let cov: Matrix3<f64> = pts.iter().map(|p| (p - c) * (p - c).transpose()).sum();
+                let eig = cov.symmetric_eigen();
+                let k = eig.eigenvalues.imin();
+                let mut nrm: V3 = eig.eigenvectors.column(k).into_owned();
+                let centroid =
+                    |set: &Vec<usize>| set.iter().map(|&m| pos(m)).sum::<V3>() / set.len() as f64;
+                let [cp, cm, wp, wm] = &st.front;
+                let front = (centroid(cp) - centroid(cm)).cross(&(centroid(wp) - centroid(wm)));
+                if nrm.dot(&front) < 0.0 {
+                    nrm = -nrm;
+                }
+                st.order[0] * nrm
+            })
+            .collect();
+        // Crimp offset of (node, slot): yarn i of an n-stack at x + R (2i − n + 1) n̂.
+        let offset = |n: usize, slot: usize| -> V3 {
+            match self.stack_of_node[n] {
+                Some(k) if settings.crimp_offset => {
+                    let m = self.yarn_slots[n].len() as f64;
+                    radius * (2.0 * slot as f64 - m + 1.0) * normals[k]
+                }
+                _ => V3::zeros(),
+            }
+        };
+        let mut forces: Vec<Vec<V3>> = self
+            .stacks
+            .iter()
+            .map(|st| vec![V3::zeros(); self.yarn_slots[st.node].len()])
+            .collect();
+        let mut add = |n: usize, slot: usize, g: V3| {
+            if let Some(k) = self.stack_of_node[n] {
+                forces[k][slot] -= g;
+            }
+        };
+        let block = |g: &[f64], i: usize| V3::new(g[i], g[i + 1], g[i + 2]);
+        for term in terms {
+            match term {
+                Term::Stretch(s, d) => {
+                    let local = gather(q, d);
+                    let (_, g) = s.energy_and_gradient(&local);
+                    let ends = [self.owner[d[3]], self.owner[d[7]]];
+                    if !settings.crimp_offset {
+                        for (e, &(n, slot)) in ends.iter().enumerate() {
+                            add(n, slot, block(g.as_slice(), 4 * e));
+                        }
+                        continue;
+                    }
+                    // The tension from the real segment, its direction from the offset one.
+                    let x = |e: usize| V3::new(local[4 * e], local[4 * e + 1], local[4 * e + 2]);
+                    let t = (x(1) - x(0)).normalize();
+                    let tension = block(g.as_slice(), 4).dot(&t);
+                    let [(n0, s0), (n1, s1)] = ends;
+                    let off = (x(1) + offset(n1, s1) - x(0) - offset(n0, s0)).normalize();
+                    add(n0, s0, -tension * off);
+                    add(n1, s1, tension * off);
+                }
+                Term::Bending(s, d) => {
+                    let (_, g) = s.energy_and_gradient(&gather(q, d));
+                    for e in 0..3 {
+                        let (n, slot) = self.owner[d[4 * e + 3]];
+                        add(n, slot, block(g.as_slice(), 4 * e));
+                    }
+                }
+                Term::Wrapping(s, d) => {
+                    let (_, g) = s.energy_and_gradient(&gather(q, d));
+                    let node = |k: usize| self.owner[d[3 * k]].0;
+                    // Wings (q₀, q₄) and (q₁, q₃): blocks (0, 2) and (1, 3).
+                    for (a, b) in [(0, 2), (1, 3)] {
+                        if let Some((sa, sb)) = self.joining_yarn(node(a), node(b)) {
+                            add(node(a), sa, block(g.as_slice(), 3 * a));
+                            add(node(b), sb, block(g.as_slice(), 3 * b));
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        self.stacks
+            .iter()
+            .zip(normals)
+            .zip(forces)
+            .map(|((st, n), f)| {
+                let normals = vec![n; f.len() - 1];
+                let sys = CompressionSystem::new(&normals, &f)?;
+                let closed_form = sys.closed_form().ok_or_else(|| {
+                    CompressionError::Invalid(format!("node {}: singular AᵀA", st.node))
+                })?;
+                Ok(NodeCompression {
+                    node: st.node,
+                    nnls: sys.nnls(),
+                    closed_form,
+                    normals,
+                    forces: f,
+                })
+            })
+            .collect()
+    }
+}
+
+/// Slip force (N) of every DOF: `μ (λᵢ₋₁ + λᵢ)` (module documentation) for the sliding
+/// coordinates of the stacked nodes of `estimates`, 0 elsewhere.
+pub fn slip_forces(
+    estimates: &[NodeCompression],
+    dofs: &DofMap,
+    friction_coefficient: f64,
+    solver: CompressionSolver,
+) -> Vec<f64> {
+    let mut out = vec![0.0; dofs.n_dofs()];
+    for e in estimates {
+        for slot in 0..e.forces.len() {
+            out[dofs.u(e.node, slot)] = friction_coefficient * e.slot_compression(slot, solver);
+        }
+    }
+    out
+}
+
+/// Node sets `(course₊, course₋, wale₊, wale₋)` of the material front at `node` (module
+/// documentation), or `None` for a topology without a grid.
+fn front_stencil(topology: &Topology, node: usize) -> Option<[Vec<usize>; 4]> {
+    match &topology.kind {
+        FabricKind::Knit(chart) => Some(knit_front(chart, node)),
+        FabricKind::Weave { warps, wefts, .. } => {
+            let (i, j) = (node % warps, node / warps);
+            let at = |i: usize, j: usize| vec![j * warps + i];
+            Some([
+                at((i + 1).min(warps - 1), j),
+                at(i.saturating_sub(1), j),
+                at(i, (j + 1).min(wefts - 1)),
+                at(i, j.saturating_sub(1)),
+            ])
+        }
+    }
+}
+
+/// The material front stencil of a knit node `((b w + c) 2 + side) 2 + hi`: course from the
+/// left to the right contact of its column on its boundary, wale from the same contact on
+/// the boundaries below to above (clamped at the cast-on and bind-off).
+fn knit_front(chart: &Chart, node: usize) -> [Vec<usize>; 4] {
+    let (w, h) = (chart.width(), chart.height());
+    let cell = node / 4;
+    let (b, c) = (cell / w, cell % w);
+    let side = if (node / 2).is_multiple_of(2) {
+        Side::Left
+    } else {
+        Side::Right
+    };
+    let contact = |b: usize, side: Side| {
+        vec![
+            knit_node(w, b, c, side, false),
+            knit_node(w, b, c, side, true),
+        ]
+    };
+    [
+        contact(b, Side::Right),
+        contact(b, Side::Left),
+        contact((b + 1).min(h), side),
+        contact(b.saturating_sub(1), side),
+    ]
 }

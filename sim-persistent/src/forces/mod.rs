@@ -10,19 +10,23 @@
 //! | bending with jamming | [`bending`] | `(x₀, u₀, x₁, u₁, x₂, u₂)` per interior pass | seed 000 Eq. 1, §4.1 |
 //! | stitch-contact length | [`stitch_length`] | `(u₀, u₁)` per yarn and stitch contact | seed 000 Eq. 6 |
 //! | sliding friction (anchored springs) | [`friction`] | `u` per free sliding coordinate | seed 000 Eq. 5 |
-//! | compression estimation (solvers only, not used by friction yet) | [`compression`] | — | seed 000 Eqs. 3–4 |
+//! | compression estimation at stacked nodes (gives friction its bound μλ; not a potential) | [`compression`] | — | seed 000 Eqs. 3–4, §4.3 |
+//! | contact between adjacent loops (knits, off by default) | [`loop_contact`] | `(x_a, x_b)` per candidate node pair | seed 000 §4, ref. 6 |
 //! | stitch wrapping (knits only) | [`wrapping`] | `(x₀, x₁, x₄, x₃)` per pair of opposite segments | seed 000 Eq. 2, Eqs. 7–13 |
+//! | crossing shear with jamming (weaves only) | [`crossing_shear`] | `(x_a, x₀, x_b)` per crossing quadrant | ref. 6 (Cirio 2014) shear, seed 000 §4.1 jamming |
+//! | sphere / plane obstacle contact (only with obstacles) | [`obstacle`] | `x` per node and obstacle | seed 000 §5.2.1 (penalty, C²) |
 //! | inertia, Rayleigh damping | [`quadratic`] | as the term they belong to | §4, [`crate::integrator`] |
 //!
-//! Not yet implemented: compression
-//! estimation at the nodes of a running simulation (see [`compression`]; friction uses a
-//! constant slip force meanwhile); friction of parallel stacked yarns; contact between
-//! adjacent loops; crossing shear/jamming of weaves.
+//! Not yet implemented: friction of parallel stacked yarns (no topology has them yet, see
+//! [`friction`]).
 
 pub mod bending;
 pub mod compression;
+pub mod crossing_shear;
 pub mod friction;
 pub mod gravity;
+pub mod loop_contact;
+pub mod obstacle;
 pub mod quadratic;
 pub mod stitch_length;
 pub mod stretch;
@@ -31,8 +35,11 @@ pub mod wrapping;
 use crate::params::YarnParams;
 use crate::state::{DofMap, gather};
 use crate::topology::{FabricKind, Topology};
+use crossing_shear::{CrossingShear, CrossingShearParams};
 use friction::AnchoredSpring;
 use gravity::Gravity;
+use loop_contact::LoopContact;
+use obstacle::ObstacleContact;
 use quadratic::Quadratic;
 use rod::Stencil;
 use rod::bending::AngleBending;
@@ -41,7 +48,7 @@ use stitch_length::StitchLength;
 use wrapping::StitchWrap;
 
 /// Which force terms a model assembles (only what the scene needs is built).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ForceSet {
     /// Gravity (seed 000 §4).
     pub gravity: bool,
@@ -56,6 +63,17 @@ pub struct ForceSet {
     /// Stitch wrapping (Eq. 2). Only knits have stitch contacts, so a weave never gets
     /// wrapping terms whatever this says.
     pub wrapping: bool,
+    /// Crossing shear with shear jamming ([`crossing_shear`]). Only weaves have crossings,
+    /// so a knit never gets crossing-shear terms whatever this says.
+    pub crossing_shear: bool,
+    /// Stiffness and jamming of the crossing shear (not in [`YarnParams`]: ref. 6's shear
+    /// parameters, defaults documented on [`CrossingShearParams`]).
+    pub crossing_shear_params: CrossingShearParams,
+    /// Contact between adjacent loops ([`loop_contact`], knits only). Default off: it is
+    /// inactive in the default layouts, and on settled free swatches it weakens the
+    /// stockinette curl as much as the garter curl it was hoped to remove (measurements in
+    /// [`loop_contact`]).
+    pub loop_contact: bool,
 }
 
 impl Default for ForceSet {
@@ -68,6 +86,9 @@ impl Default for ForceSet {
             stitch_length: true,
             friction: true,
             wrapping: true,
+            crossing_shear: true,
+            crossing_shear_params: CrossingShearParams::default(),
+            loop_contact: false,
         }
     }
 }
@@ -87,6 +108,12 @@ pub enum TermKind {
     Friction,
     /// Stitch wrapping.
     Wrapping,
+    /// Crossing shear with jamming (weaves).
+    CrossingShear,
+    /// Obstacle contact (penalty).
+    Obstacle,
+    /// Contact between adjacent loops (penalty).
+    LoopContact,
     /// Inertia (+ mass damping) of an implicit step.
     Inertia,
     /// Stiffness (Rayleigh β) damping of an implicit step.
@@ -108,6 +135,13 @@ pub enum Term {
     Friction(AnchoredSpring, [usize; 1]),
     /// Stitch wrapping of one pair of opposite segments (positions of `q₀, q₁, q₄, q₃`).
     Wrapping(StitchWrap, [usize; 12]),
+    /// Shear of one crossing quadrant (positions of the weft neighbour, the crossing node
+    /// and the warp neighbour).
+    CrossingShear(CrossingShear, [usize; 9]),
+    /// Penalty contact of one node with one obstacle (its position).
+    Obstacle(ObstacleContact, [usize; 3]),
+    /// Contact penalty of one pair of nodes on adjacent loops (their positions).
+    LoopContact(LoopContact, [usize; 6]),
     /// Inertia of a segment (boxed: the per-step matrices dwarf the other variants).
     Inertia(Box<Quadratic<8>>, [usize; 8]),
     /// Stiffness damping of a 1-DOF term.
@@ -118,6 +152,8 @@ pub enum Term {
     Damping8(Box<Quadratic<8>>, [usize; 8]),
     /// Stiffness damping of a 12-DOF term.
     Damping12(Box<Quadratic<12>>, [usize; 12]),
+    /// Stiffness damping of a 9-DOF term (crossing shear).
+    Damping9(Box<Quadratic<9>>, [usize; 9]),
 }
 
 /// Runs `$body` with `$s` bound to the stencil and `$d` to its DOF array, for any variant.
@@ -130,11 +166,15 @@ macro_rules! with_stencil {
             Term::StitchLength($s, $d) => $body,
             Term::Friction($s, $d) => $body,
             Term::Wrapping($s, $d) => $body,
+            Term::CrossingShear($s, $d) => $body,
+            Term::Obstacle($s, $d) => $body,
+            Term::LoopContact($s, $d) => $body,
             Term::Inertia($s, $d) => $body,
             Term::Damping1($s, $d) => $body,
             Term::Damping2($s, $d) => $body,
             Term::Damping8($s, $d) => $body,
             Term::Damping12($s, $d) => $body,
+            Term::Damping9($s, $d) => $body,
         }
     };
 }
@@ -154,10 +194,15 @@ impl Term {
             Term::StitchLength(..) => TermKind::StitchLength,
             Term::Friction(..) => TermKind::Friction,
             Term::Wrapping(..) => TermKind::Wrapping,
+            Term::CrossingShear(..) => TermKind::CrossingShear,
+            Term::Obstacle(..) => TermKind::Obstacle,
+            Term::LoopContact(..) => TermKind::LoopContact,
             Term::Inertia(..) => TermKind::Inertia,
-            Term::Damping1(..) | Term::Damping2(..) | Term::Damping8(..) | Term::Damping12(..) => {
-                TermKind::Damping
-            }
+            Term::Damping1(..)
+            | Term::Damping2(..)
+            | Term::Damping8(..)
+            | Term::Damping9(..)
+            | Term::Damping12(..) => TermKind::Damping,
         }
     }
 
@@ -196,6 +241,9 @@ impl Term {
             (Term::Wrapping(s, d), Term::Damping12(f, e)) if d == e => {
                 fill(s, d, q, factor, true, f)
             }
+            (Term::CrossingShear(s, d), Term::Damping9(f, e)) if d == e => {
+                fill(s, d, q, factor, true, f)
+            }
             (Term::StitchLength(s, d), Term::Damping2(f, e)) if d == e => {
                 fill(s, d, q, factor, false, f)
             }
@@ -216,6 +264,7 @@ impl Term {
                 Term::Damping12(Box::new(Quadratic::zero()), *d)
             }
             Term::StitchLength(_, d) => Term::Damping2(Box::new(Quadratic::zero()), *d),
+            Term::CrossingShear(_, d) => Term::Damping9(Box::new(Quadratic::zero()), *d),
             Term::Friction(_, d) => Term::Damping1(Box::new(Quadratic::zero()), *d),
             _ => return None,
         };
@@ -304,12 +353,28 @@ impl solver::Problem for Potential {
     }
 }
 
+/// The obstacle-contact terms of `obstacles` for the yarns of `params` (one per node and
+/// obstacle, [`obstacle`]); empty without obstacles. Errors if an obstacle is invalid.
+pub fn obstacle_terms(
+    topology: &Topology,
+    dofs: &DofMap,
+    params: &YarnParams,
+    obstacles: &[obstacle::Obstacle],
+) -> Result<Vec<Term>, String> {
+    Ok(obstacle::stencils(topology, dofs, params, obstacles)?
+        .into_iter()
+        .map(|(s, d)| Term::Obstacle(s, d))
+        .collect())
+}
+
 /// The elastic and gravity terms of a fabric (everything but the per-step inertia and
 /// damping), selected by `forces`. Rest lengths of stitch contacts (Eqs. 2 and 6) and the
 /// initial friction anchors (Eq. 5; one per free sliding coordinate of a node with ≥ 2 yarns) are
 /// taken from the coordinates `q_rest` (normally the initial layout). Wrapping terms (knits
 /// only) get their full rest angle `± ψ₀` ([`wrapping::rest_angle_sign`]); the simulator
-/// ramps it in ([`crate::integrator::StepSettings::wrapping_ramp_time`]).
+/// ramps it in ([`crate::integrator::StepSettings::wrapping_ramp_time`]). Crossing-shear
+/// terms (weaves only) take their rest angles and lengths from `q_rest`. Obstacle terms are
+/// not built here ([`obstacle_terms`]).
 pub fn build_terms(
     topology: &Topology,
     dofs: &DofMap,
@@ -392,6 +457,21 @@ pub fn build_terms(
             }
         }
     }
+    let weave = matches!(topology.kind, FabricKind::Weave { .. });
+    if forces.crossing_shear && weave && forces.crossing_shear_params.stiffness > 0.0 {
+        let shear = crossing_shear::stencils(topology, dofs, &forces.crossing_shear_params, q_rest);
+        terms.extend(shear.into_iter().map(|(s, d)| Term::CrossingShear(s, d)));
+    }
+    if forces.loop_contact && params.loop_contact_stiffness > 0.0 {
+        let contact = LoopContact {
+            stiffness: params.loop_contact_stiffness,
+            distance: 2.0 * params.radius,
+        };
+        for [a, b] in loop_contact::candidate_pairs(topology) {
+            let d: [usize; 6] = std::array::from_fn(|k| dofs.x([a, b][k / 3]) + k % 3);
+            terms.push(Term::LoopContact(contact, d));
+        }
+    }
     if forces.friction && params.friction_stiffness > 0.0 {
         for (n, node) in topology.nodes.iter().enumerate() {
             if node.passes.len() < 2 {
@@ -400,10 +480,7 @@ pub fn build_terms(
             for (slot, p) in node.passes.iter().enumerate() {
                 if !p.sliding_pinned {
                     let d = [dofs.u(n, slot)];
-                    let spring = AnchoredSpring {
-                        stiffness: params.friction_stiffness,
-                        anchor: q_rest[d[0]],
-                    };
+                    let spring = AnchoredSpring::new(params.friction_stiffness, q_rest[d[0]]);
                     terms.push(Term::Friction(spring, d));
                 }
             }
