@@ -130,6 +130,11 @@ pub fn all_figures() -> Vec<FigureSpec> {
         periodic_tiles::spec(),
         periodic_bending::spec(),
         periodic_time_vs_error::spec(),
+        persistent_rib_stretch::spec(),
+        persistent_curl::spec(),
+        persistent_plasticity::spec(),
+        persistent_patterns_on_sphere::spec(),
+        persistent_time_vs_error::spec(),
     ]
 }
 

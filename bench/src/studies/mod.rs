@@ -2,3 +2,4 @@
 
 pub mod cantilever;
 pub mod periodic;
+pub mod persistent;
