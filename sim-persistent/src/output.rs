@@ -772,7 +772,8 @@ impl View {
 }
 
 /// The `[output]` section of a scene (see [`crate::scene`]); every value is checked while
-/// parsing, so a bad one is reported at its line.
+/// parsing, so a bad one is reported at its line (the renderer's total pixel budget, image
+/// size × supersampling², is checked when the first image is rendered).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct OutputSpec {

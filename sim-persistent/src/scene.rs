@@ -380,9 +380,20 @@ impl Default for ForcesSpec {
 pub struct ClampSpec {
     /// `cast-on` or `bind-off`.
     pub edge: String,
-    /// Velocity (m/s); default zero.
-    #[serde(default)]
+    /// Velocity (m/s, finite); default zero.
+    #[serde(default, deserialize_with = "de_velocity")]
     pub velocity: [f64; 3],
+}
+
+/// A clamp velocity: three finite numbers (m/s).
+fn de_velocity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    let v = <[f64; 3]>::deserialize(d)?;
+    if !v.iter().all(|c| c.is_finite()) {
+        return Err(serde::de::Error::custom(format!(
+            "clamp `velocity` must be three finite numbers (m/s), found {v:?}"
+        )));
+    }
+    Ok(v)
 }
 
 /// `[[obstacle]]`: a sphere (`centre`, `radius`) or a plane (`point`, `normal`) with an

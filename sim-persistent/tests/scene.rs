@@ -101,7 +101,8 @@ fn unknown_key_names_line_and_column() {
 
 /// A value of the wrong type and malformed TOML are located too; an inconsistent `[pattern]`
 /// (unknown builder, missing size, malformed chart) is a parse error at the `[pattern]`
-/// header (line 6); an unknown clamp edge is an `Invalid` error when building.
+/// header (line 6); a non-finite clamp velocity is a parse error at its line; an unknown
+/// clamp edge is an `Invalid` error when building.
 #[test]
 fn bad_values_are_errors() {
     let text = SCENE.replace("width = 4", "width = \"four\"");
@@ -124,6 +125,18 @@ fn bad_values_are_errors() {
         ),
     ] {
         assert_parse_error(&SCENE.replace(from, to), 6, needle);
+    }
+    // A non-finite clamp velocity is a parse error at its line.
+    for bad in ["nan", "inf"] {
+        let text = SCENE.replace(
+            "velocity = [0.0, 0.01, 0.0]",
+            &format!("velocity = [0.0, {bad}, 0.0]"),
+        );
+        let line = 1 + text
+            .lines()
+            .position(|l| l.starts_with("velocity"))
+            .expect("the scene has a clamp velocity");
+        assert_parse_error(&text, line, "finite");
     }
     let text = SCENE.replace("edge = \"cast-on\"", "edge = \"side\"");
     assert!(matches!(

@@ -66,7 +66,7 @@ fn experiment(quick: bool, dt: f64, tol: f64) -> RibStretch {
         height,
         speed: 0.1,
         extension,
-        // 10 ms of travel: a whole number of steps for every dt of the sweep.
+        // 1 mm of travel (10 ms at 0.1 m/s): a whole number of steps for every dt of the sweep.
         sample_every: 1e-3,
         settings,
     }

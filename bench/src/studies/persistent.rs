@@ -403,8 +403,9 @@ impl Cycles {
         };
         for (cycle, &amplitude) in self.amplitudes.iter().enumerate() {
             anyhow::ensure!(
-                amplitude > travel,
-                "cycle {cycle}: amplitude {amplitude} m is not beyond the current travel {travel} m"
+                amplitude - travel >= step,
+                "cycle {cycle}: amplitude {amplitude} m is less than one clamp step ({step} m) \
+                 beyond the current travel {travel} m"
             );
             while travel < amplitude - 0.5 * step {
                 let force = advance(&mut sim, step)?;
