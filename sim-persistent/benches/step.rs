@@ -22,7 +22,7 @@ use sim_persistent::forces::ForceSet;
 use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
-use sim_persistent::topology::{Side, Topology, knit_node};
+use sim_persistent::topology::{Topology, knit_boundary_nodes};
 use solver::{LinearSolver, PcgSettings, Preconditioner};
 use std::time::Duration;
 
@@ -40,13 +40,7 @@ fn hanging(chart: &Chart, adjust: fn(StepSettings) -> StepSettings) -> Simulator
     });
     let mut sim =
         Simulator::new(topo, &layout, params, ForceSet::default(), settings).expect("simulator");
-    let pins: Vec<usize> = (0..w)
-        .flat_map(|c| {
-            [Side::Left, Side::Right]
-                .into_iter()
-                .flat_map(move |s| [knit_node(w, h, c, s, false), knit_node(w, h, c, s, true)])
-        })
-        .collect();
+    let pins: Vec<usize> = knit_boundary_nodes(w, h);
     sim.pin_nodes(&pins).expect("pins");
     sim.step().expect("warm-up step");
     sim

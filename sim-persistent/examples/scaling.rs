@@ -43,7 +43,7 @@ use sim_persistent::forces::ForceSet;
 use sim_persistent::integrator::{Simulator, StepReport, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
-use sim_persistent::topology::{Side, Topology, knit_node};
+use sim_persistent::topology::{Topology, knit_boundary_nodes};
 use solver::{LinearSolver, PcgSettings, Preconditioner};
 use std::time::Instant;
 
@@ -147,13 +147,7 @@ fn hanging_garter(n: usize, settings: StepSettings) -> Simulator {
     let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).expect("layout");
     let mut sim =
         Simulator::new(topo, &layout, params, ForceSet::default(), settings).expect("simulator");
-    let pins: Vec<usize> = (0..n)
-        .flat_map(|c| {
-            [Side::Left, Side::Right]
-                .into_iter()
-                .flat_map(move |s| [knit_node(n, n, c, s, false), knit_node(n, n, c, s, true)])
-        })
-        .collect();
+    let pins: Vec<usize> = knit_boundary_nodes(n, n);
     sim.pin_nodes(&pins).expect("pins");
     sim
 }

@@ -56,7 +56,7 @@ use sim_persistent::forces::ForceSet;
 use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
-use sim_persistent::topology::{Side, Topology, knit_node};
+use sim_persistent::topology::{Topology, knit_boundary_nodes};
 use std::time::Instant;
 
 /// Stitches per side.
@@ -71,17 +71,6 @@ const T_END: f64 = 0.6;
 const CLAMP_SPEED: f64 = 2.0 * HEIGHT;
 /// Duration of the drive in part 1 (s): 50 % strain.
 const DRIVE_TIME: f64 = 0.25;
-
-/// All nodes of row boundary `b`.
-fn boundary(b: usize) -> Vec<usize> {
-    (0..N)
-        .flat_map(|c| {
-            [Side::Left, Side::Right]
-                .into_iter()
-                .flat_map(move |s| [knit_node(N, b, c, s, false), knit_node(N, b, c, s, true)])
-        })
-        .collect()
-}
 
 fn simulator(params: YarnParams, forces: ForceSet, settings: StepSettings) -> Simulator {
     let chart = Chart::garter(N, N).expect("valid size");
@@ -135,10 +124,10 @@ fn run(scene: Scene, dt: f64, t_end: f64, drive_time: f64, max_halvings: usize) 
         ForceSet::default(),
         settings(dt, max_halvings),
     );
-    let top = boundary(N);
+    let top = knit_boundary_nodes(N, N);
     sim.pin_nodes(&top).expect("pins");
     if scene == Scene::Stretched {
-        sim.pin_nodes(&boundary(0)).expect("pins");
+        sim.pin_nodes(&knit_boundary_nodes(N, 0)).expect("pins");
     }
     let start = positions(&sim);
     let steps = (t_end / dt).round() as usize;
@@ -296,7 +285,7 @@ fn part2_static() {
         ..ForceSet::default()
     };
     let mut sim = simulator(params, forces, StepSettings::default());
-    let (bottom, top) = (boundary(0), boundary(N));
+    let (bottom, top) = (knit_boundary_nodes(N, 0), knit_boundary_nodes(N, N));
     sim.pin_nodes(&bottom).expect("pins");
     sim.pin_nodes(&top).expect("pins");
     sim.solve_static().expect("rest solve");
@@ -350,7 +339,7 @@ fn part2_driven() {
     println!("\n## Part 2b: driven clamp, dt = 1 ms, 36 mm/s to 100 % wale strain (with gravity)");
     let dt = 1e-3;
     let mut sim = simulator(YarnParams::sweater(), ForceSet::default(), settings(dt, 4));
-    let (bottom, top) = (boundary(0), boundary(N));
+    let (bottom, top) = (knit_boundary_nodes(N, 0), knit_boundary_nodes(N, N));
     sim.pin_nodes(&bottom).expect("pins");
     sim.pin_nodes(&top).expect("pins");
     let steps = (1.0 / CLAMP_SPEED * HEIGHT / dt).round() as usize; // 100 % strain

@@ -83,7 +83,7 @@ use crate::integrator::{SimError, Simulator, StepSettings};
 use crate::layout::{Layout, LayoutError, LayoutParams};
 use crate::output::{OutputError, OutputSpec};
 use crate::params::YarnParams;
-use crate::topology::{Side, Topology, knit_node};
+use crate::topology::{Topology, knit_boundary_nodes};
 use crate::weave::WeavePattern;
 use rod::geometry::V3;
 use serde::Deserialize;
@@ -737,16 +737,7 @@ impl Scene {
                 Fabric::Knit(chart) => {
                     let (w, h) = (chart.width(), chart.height());
                     let b = if last { h } else { 0 };
-                    (0..w)
-                        .flat_map(|col| {
-                            [Side::Left, Side::Right].into_iter().flat_map(move |s| {
-                                [
-                                    knit_node(w, b, col, s, false),
-                                    knit_node(w, b, col, s, true),
-                                ]
-                            })
-                        })
-                        .collect()
+                    knit_boundary_nodes(w, b)
                 }
                 // Node j · warps + i is the crossing of warp i and weft j.
                 Fabric::Weave { warps, wefts, .. } => {

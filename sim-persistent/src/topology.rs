@@ -163,6 +163,31 @@ pub fn knit_node(w: usize, b: usize, c: usize, side: Side, hi: bool) -> usize {
     ((b * w + c) * 2 + side as usize) * 2 + hi as usize
 }
 
+/// Every node of row boundary `b` of a knit of width `w` (both contacts of every column, `lo`
+/// then `hi`, columns left to right): a clamp over a cast-on (`b = 0`), bind-off (`b = H`) or
+/// interior row boundary.
+pub fn knit_boundary_nodes(w: usize, b: usize) -> Vec<usize> {
+    (0..w)
+        .flat_map(|c| {
+            [Side::Left, Side::Right]
+                .into_iter()
+                .flat_map(move |s| [knit_node(w, b, c, s, false), knit_node(w, b, c, s, true)])
+        })
+        .collect()
+}
+
+/// Every node of column `c` of a knit `w` wide and `h` rows tall (all boundaries `0..=h`, both
+/// contacts, `lo` then `hi`): a clamp over a side edge.
+pub fn knit_column_nodes(w: usize, h: usize, c: usize) -> Vec<usize> {
+    (0..=h)
+        .flat_map(|b| {
+            [Side::Left, Side::Right]
+                .into_iter()
+                .flat_map(move |s| [knit_node(w, b, c, s, false), knit_node(w, b, c, s, true)])
+        })
+        .collect()
+}
+
 impl Topology {
     /// The knit of `chart`: one yarn per row, two nodes per stitch contact (module docs).
     pub fn knit(chart: &Chart) -> Self {

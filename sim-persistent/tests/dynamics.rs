@@ -7,7 +7,7 @@ use sim_persistent::forces::ForceSet;
 use sim_persistent::integrator::{SimError, Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
-use sim_persistent::topology::{Side, Topology, knit_node};
+use sim_persistent::topology::{Topology, knit_boundary_nodes};
 
 /// Loop width of the Table 1 sweater (m).
 const LOOP_WIDTH: f64 = 3e-3;
@@ -26,13 +26,7 @@ fn simulator(
 /// The nodes of the bind-off edge (top row boundary).
 fn bind_off_nodes(chart: &Chart) -> Vec<usize> {
     let (w, h) = (chart.width(), chart.height());
-    (0..w)
-        .flat_map(|c| {
-            [Side::Left, Side::Right]
-                .into_iter()
-                .flat_map(move |s| [knit_node(w, h, c, s, false), knit_node(w, h, c, s, true)])
-        })
-        .collect()
+    knit_boundary_nodes(w, h)
 }
 
 fn mean_y(sim: &Simulator) -> f64 {

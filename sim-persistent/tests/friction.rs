@@ -9,7 +9,7 @@ use sim_persistent::forces::{ForceSet, Term};
 use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::{CompressionSolver, YarnParams};
-use sim_persistent::topology::{Side, Topology, knit_node};
+use sim_persistent::topology::{Topology, knit_boundary_nodes};
 use sim_persistent::weave::WeavePattern;
 
 /// Crossing spacing of the hand-built weaves (m).
@@ -228,17 +228,6 @@ fn slips_when_the_pull_exceeds_mu_lambda_and_not_below() {
     );
 }
 
-/// The nodes of row boundary `b` of a knit of width `w`.
-fn boundary_nodes(w: usize, b: usize) -> Vec<usize> {
-    (0..w)
-        .flat_map(|c| {
-            [Side::Left, Side::Right]
-                .into_iter()
-                .flat_map(move |s| [knit_node(w, b, c, s, false), knit_node(w, b, c, s, true)])
-        })
-        .collect()
-}
-
 /// A 4 × 4 stockinette held at its cast-on and bind-off edges (Table 1 sweater yarn, no
 /// gravity, no wrapping): the static equilibrium of the layout, then stretched by 15 % in
 /// the wale direction. The stretched swatch's stitch contacts are much more compressed: the
@@ -257,7 +246,7 @@ fn stretched_swatch_has_larger_compression() {
         ..ForceSet::default()
     };
     let mut sim = Simulator::new(topo, &layout, params, forces, StepSettings::default()).unwrap();
-    let (bottom, top) = (boundary_nodes(4, 0), boundary_nodes(4, 4));
+    let (bottom, top) = (knit_boundary_nodes(4, 0), knit_boundary_nodes(4, 4));
     sim.pin_nodes(&bottom).unwrap();
     sim.pin_nodes(&top).unwrap();
     let lambdas = |sim: &Simulator| -> Vec<(usize, f64)> {

@@ -7,7 +7,7 @@ use sim_persistent::forces::ForceSet;
 use sim_persistent::integrator::{SimError, Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
-use sim_persistent::topology::{Side, Topology, knit_node};
+use sim_persistent::topology::{Topology, knit_boundary_nodes};
 use solver::{LinearSolver, PcgSettings, Preconditioner, Termination};
 
 /// A 4 × 4 garter swatch of the Table 1 sweater yarn (loop width 3 mm) hanging from its
@@ -25,13 +25,7 @@ fn hanging(adjust: impl FnOnce(StepSettings) -> StepSettings) -> Simulator {
     });
     let mut sim = Simulator::new(topo, &layout, params, ForceSet::default(), settings).unwrap();
     let (w, h) = (chart.width(), chart.height());
-    let pins: Vec<usize> = (0..w)
-        .flat_map(|c| {
-            [Side::Left, Side::Right]
-                .into_iter()
-                .flat_map(move |s| [knit_node(w, h, c, s, false), knit_node(w, h, c, s, true)])
-        })
-        .collect();
+    let pins: Vec<usize> = knit_boundary_nodes(w, h);
     sim.pin_nodes(&pins).unwrap();
     sim
 }

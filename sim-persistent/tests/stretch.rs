@@ -11,18 +11,7 @@ use sim_persistent::forces::{ForceSet, TermKind};
 use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
-use sim_persistent::topology::{Side, Topology, knit_node};
-
-/// All nodes of row boundary `b` of a knit of width `w`.
-fn boundary(w: usize, b: usize) -> Vec<usize> {
-    (0..w)
-        .flat_map(|c| {
-            [Side::Left, Side::Right]
-                .into_iter()
-                .flat_map(move |s| [knit_node(w, b, c, s, false), knit_node(w, b, c, s, true)])
-        })
-        .collect()
-}
+use sim_persistent::topology::{Topology, knit_boundary_nodes};
 
 fn energy(shares: &[(TermKind, f64)], kind: TermKind) -> f64 {
     shares
@@ -47,7 +36,7 @@ fn wale_stretch_goes_from_bending_to_stretching() {
         ..ForceSet::default()
     };
     let mut sim = Simulator::new(topo, &layout, params, forces, StepSettings::default()).unwrap();
-    let (bottom, top) = (boundary(w, 0), boundary(w, h));
+    let (bottom, top) = (knit_boundary_nodes(w, 0), knit_boundary_nodes(w, h));
     sim.pin_nodes(&bottom).unwrap();
     sim.pin_nodes(&top).unwrap();
     sim.solve_static().unwrap();

@@ -254,3 +254,22 @@ fn only_needed_terms_are_built() {
     // Never wrapping for a weave, even with the term switched on.
     assert_eq!(count(&terms, TermKind::Wrapping), 0);
 }
+
+/// The clamp node sets: a row boundary has 4 nodes per column, a column 4 per boundary, all
+/// distinct, and the boundaries `0..=h` together hold every node exactly once.
+#[test]
+fn boundary_and_column_node_sets() {
+    use sim_persistent::topology::{knit_boundary_nodes, knit_column_nodes};
+    let (w, h) = (4, 3);
+    let topo = Topology::knit(&Chart::stockinette(w, h).unwrap());
+    assert_eq!(knit_column_nodes(w, h, 0).len(), 4 * (h + 1));
+    let mut all: Vec<usize> = (0..=h).flat_map(|b| knit_boundary_nodes(w, b)).collect();
+    assert!((0..=h).all(|b| knit_boundary_nodes(w, b).len() == 4 * w));
+    all.sort_unstable();
+    all.dedup();
+    assert_eq!(all, (0..topo.nodes.len()).collect::<Vec<_>>());
+    let mut column = knit_column_nodes(w, h, w - 1);
+    column.sort_unstable();
+    column.dedup();
+    assert_eq!(column.len(), 4 * (h + 1));
+}

@@ -16,7 +16,7 @@ use sim_persistent::forces::{ForceSet, TermKind};
 use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
-use sim_persistent::topology::{Side, Topology, knit_node};
+use sim_persistent::topology::{Topology, knit_column_nodes};
 
 /// Loop width of every swatch (m).
 pub const LOOP_WIDTH: f64 = 3e-3;
@@ -119,38 +119,6 @@ pub fn positions(sim: &Simulator) -> Vec<V3> {
         .collect()
 }
 
-/// Every node of columns `columns` of a knit `w` wide and `h` rows tall (all boundaries,
-/// both contacts, both ends): a clamp over whole columns.
-pub fn column_nodes(w: usize, h: usize, columns: &[usize]) -> Vec<usize> {
-    let mut nodes = Vec::new();
-    for b in 0..=h {
-        for &c in columns {
-            for side in [Side::Left, Side::Right] {
-                for hi in [false, true] {
-                    nodes.push(knit_node(w, b, c, side, hi));
-                }
-            }
-        }
-    }
-    nodes
-}
-
-/// Every node of row boundaries `boundaries` of a knit `w` wide: a clamp over whole
-/// cast-on / bind-off edges.
-pub fn boundary_nodes(w: usize, boundaries: &[usize]) -> Vec<usize> {
-    let mut nodes = Vec::new();
-    for &b in boundaries {
-        for c in 0..w {
-            for side in [Side::Left, Side::Right] {
-                for hi in [false, true] {
-                    nodes.push(knit_node(w, b, c, side, hi));
-                }
-            }
-        }
-    }
-    nodes
-}
-
 /// Centroid of `nodes` at `positions`.
 pub fn centroid(positions: &[V3], nodes: &[usize]) -> V3 {
     nodes.iter().map(|&n| positions[n]).sum::<V3>() / nodes.len() as f64
@@ -193,8 +161,8 @@ pub struct SideClamps {
 impl SideClamps {
     /// Pins both clamps of `sim`.
     pub fn pin(sim: &mut Simulator, w: usize, h: usize) -> anyhow::Result<Self> {
-        let left = column_nodes(w, h, &[0]);
-        let right = column_nodes(w, h, &[w - 1]);
+        let left = knit_column_nodes(w, h, 0);
+        let right = knit_column_nodes(w, h, w - 1);
         sim.pin_nodes(&left)?;
         sim.pin_nodes(&right)?;
         let p = positions(sim);
@@ -487,18 +455,5 @@ mod tests {
     fn kind_names_are_snake_case() {
         assert_eq!(kind_name(TermKind::StitchLength), "stitch_length");
         assert_eq!(kind_name(TermKind::Bending), "bending");
-    }
-
-    #[test]
-    fn clamps_cover_whole_columns_and_edges() {
-        let (w, h) = (4, 3);
-        let cols = column_nodes(w, h, &[0]);
-        assert_eq!(cols.len(), (h + 1) * 4);
-        let edges = boundary_nodes(w, &[0, h]);
-        assert_eq!(edges.len(), 2 * w * 4);
-        let mut all = edges.clone();
-        all.sort_unstable();
-        all.dedup();
-        assert_eq!(all.len(), edges.len());
     }
 }
