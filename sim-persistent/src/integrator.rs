@@ -28,12 +28,17 @@
 //!   changing `M`, so without them `T + V` drifts at a rate cubic in the velocity (small at
 //!   cloth speeds), on top of backward Euler's O(h) numerical dissipation. The free-swatch
 //!   test measures the total drift and its decrease with `h`.
-//! - *Friction.* The anchored springs of Eq. 5 act with fixed anchors during the Newton solve;
-//!   the stick/slip anchor update runs after each step
-//!   ([`crate::forces::friction::AnchoredSpring::update_anchor`]) with the slip force
-//!   `μ λ`, λ *lagged*: estimated ([`crate::forces::compression`]) at the state at the start
-//!   of the (sub)step, so that it does not change during the Newton solve (a static solve
-//!   uses its equilibrium instead, [`Simulator::solve_static`]).
+//! - *Friction.* The anchored springs of Eq. 5 with the slip force `μ λ`, λ *lagged*:
+//!   estimated ([`crate::forces::compression`]) at the state at the start of the (sub)step,
+//!   so that it does not change during the Newton solve (a static solve uses its
+//!   equilibrium instead and always updates the anchors explicitly,
+//!   [`Simulator::solve_static`]). By default the anchors move only after the step, as in
+//!   the paper ([`crate::forces::friction::AnchoredSpring::update_anchor`]), and friction
+//!   grows with the step. With [`StepSettings::friction_return_mapping`] > 0 the stick/slip
+//!   decision is implicit, a return mapping: the step is re-solved with each coordinate
+//!   either sticking (spring) or slipping (constant Coulomb force) until no coordinate
+//!   changes mode ([`crate::forces::friction`]); then the slipped anchors move to their
+//!   maximal stick positions.
 //! - *Damping.* `D = α M(qₙ) + β K⁺(qₙ)`, with `K⁺` the per-stencil PSD-projected Hessian of
 //!   the elastic terms at the start of the step (so damping is dissipative), both frozen over
 //!   the step like `M`. Optionally `K⁺` is only recomputed every
@@ -100,6 +105,16 @@ pub struct StepSettings {
     /// matrix. Default 1: every step (the per-stencil PSD projections of `K⁺` are the largest
     /// part of a step's setup).
     pub damping_refresh_steps: usize,
+    /// At most this many re-solves of a step for the implicit stick/slip decision of friction
+    /// (the return mapping of [`crate::forces::friction`], e.g. 20); `0` moves the anchors
+    /// only after the step, as the paper does (explicit update: friction then grows with the
+    /// step). Default 0, the paper's model: with Coulomb-consistent friction yarns slide
+    /// freely through uncompressed contacts and the model has nothing that stops a segment
+    /// from draining until its end nodes meet (measured in [`crate::forces::friction`]), so
+    /// the return mapping needs [`crate::forces::ForceSet::loop_contact`] and is opt-in. A
+    /// step whose modes still change after the last re-solve is kept, its anchors get the
+    /// explicit update, and [`StepReport::friction_unresolved`] counts it.
+    pub friction_return_mapping: usize,
 }
 
 impl Default for StepSettings {
@@ -117,6 +132,7 @@ impl Default for StepSettings {
             max_halvings: 4,
             wrapping_ramp_time: 0.1,
             damping_refresh_steps: 1,
+            friction_return_mapping: 0,
         }
     }
 }
@@ -200,6 +216,12 @@ pub struct StepReport {
     /// Conjugate-gradient iterations over all accepted Newton iterations of all substeps
     /// (0 with the sparse Cholesky solver).
     pub linear_iterations: usize,
+    /// Extra Newton solves of the friction return mapping over all substeps (0 when no
+    /// coordinate changed between sticking and slipping, or with the explicit update).
+    pub friction_resolves: usize,
+    /// Substeps whose return mapping still changed modes after
+    /// [`StepSettings::friction_return_mapping`] re-solves (kept with the explicit update).
+    pub friction_unresolved: usize,
 }
 
 /// Moves a lagged damping form's centre to `qn` and rescales its matrix by `rescale` (if
@@ -224,6 +246,30 @@ fn recentre_damping_form(term: &mut Term, qn: &[f64], rescale: Option<f64>) -> b
         _ => return false,
     }
     true
+}
+
+/// The return-mapping classification of every friction spring among `terms` at `q`
+/// ([`crate::forces::friction::AnchoredSpring::classify`]); returns how many changed mode.
+fn classify_friction(terms: &mut [Term], q: &[f64], limits: &[f64]) -> usize {
+    let mut changed = 0;
+    for term in terms {
+        if let Term::Friction(spring, d) = term {
+            changed += usize::from(spring.classify(q[d[0]], limits[d[0]]));
+        }
+    }
+    changed
+}
+
+/// Ends a step at `q` for every friction spring among `terms`
+/// ([`crate::forces::friction::AnchoredSpring::finish_step`]); returns how many slipped.
+fn finish_friction(terms: &mut [Term], q: &[f64], limits: &[f64]) -> usize {
+    let mut slipped = 0;
+    for term in terms {
+        if let Term::Friction(spring, d) = term {
+            slipped += usize::from(spring.finish_step(q[d[0]], limits[d[0]]));
+        }
+    }
+    slipped
 }
 
 /// A fabric under implicit Euler time stepping (see the module documentation).
@@ -398,6 +444,25 @@ impl Simulator {
         Ok(())
     }
 
+    /// Holds the sliding coordinates of every yarn through `nodes` fixed (Dirichlet DOFs)
+    /// from now on: a clamp that grips the yarns, so that no yarn slides through it. With
+    /// [`pin_nodes`](Self::pin_nodes) alone the yarns stay free to slide through pinned
+    /// nodes, against friction only.
+    pub fn pin_sliding(&mut self, nodes: &[usize]) -> Result<(), SimError> {
+        for &n in nodes {
+            if n >= self.topology.nodes.len() {
+                return Err(SimError::Invalid(format!("no node {n} to pin")));
+            }
+            for s in 0..self.topology.nodes[n].passes.len() {
+                let i = self.dofs.u(n, s);
+                self.fixed[i] = true;
+                self.state.v[i] = 0.0;
+            }
+        }
+        self.solver = None; // the pattern depends on the fixed DOFs
+        Ok(())
+    }
+
     /// Static equilibrium under the current pins: minimizes the potential of the elastic
     /// terms and gravity (no inertia, no damping) from the current state with
     /// [`StepSettings::newton`] (iteration limit raised to 200, always iterated to
@@ -420,13 +485,11 @@ impl Simulator {
             .map_err(SimError::Invalid)?;
         let report = solver::minimize(&potential, &mut q, &self.fixed, &settings)?;
         // No time lag in a static solve: the anchors are checked against the compression
-        // of the equilibrium they are checked at.
+        // of the equilibrium they are checked at. No return mapping either: without inertia
+        // a coordinate released to slide at the constant Coulomb force has nothing that
+        // bounds its travel within the solve.
         let limits = self.slip_limits(&q)?;
-        for term in &mut self.potential.terms[..self.n_static] {
-            if let Term::Friction(spring, d) = term {
-                spring.update_anchor(q[d[0]], limits[d[0]]);
-            }
-        }
+        finish_friction(&mut self.potential.terms[..self.n_static], &q, &limits);
         self.state.q = q;
         self.state.v.fill(0.0);
         Ok(report)
@@ -479,6 +542,8 @@ impl Simulator {
             setup_seconds: 0.0,
             newton_seconds: 0.0,
             linear_iterations: 0,
+            friction_resolves: 0,
+            friction_unresolved: 0,
         };
         self.advance(self.settings.dt, 0, &mut report)?;
         Ok(report)
@@ -581,9 +646,39 @@ impl Simulator {
         let mut q = qn.clone();
         let newton_start = std::time::Instant::now();
         report.setup_seconds += (newton_start - setup_start).as_secs_f64();
-        let newton = solver.minimize(&self.potential, &mut q, &self.settings.newton);
+        let mut resolves = 0;
+        let outcome = loop {
+            let newton = match solver.minimize(&self.potential, &mut q, &self.settings.newton) {
+                Ok(newton) => newton,
+                Err(e) => break Err(e),
+            };
+            if resolves >= self.settings.friction_return_mapping {
+                report.friction_unresolved += usize::from(
+                    resolves > 0 && classify_friction(&mut self.potential.terms, &q, &limits) > 0,
+                );
+                break Ok(newton);
+            }
+            if classify_friction(&mut self.potential.terms, &q, &limits) == 0 {
+                break Ok(newton);
+            }
+            resolves += 1;
+            report.newton_iterations += newton.iterations;
+            report.linear_iterations += newton.linear_iterations.iter().sum::<usize>();
+        };
         report.newton_seconds += newton_start.elapsed().as_secs_f64();
-        let newton = newton?;
+        report.friction_resolves += resolves;
+        let newton = match outcome {
+            Ok(newton) => newton,
+            Err(e) => {
+                // The step is retried (halved) from the start state: no slip mode stays.
+                for term in &mut self.potential.terms[..self.n_static] {
+                    if let Term::Friction(spring, _) = term {
+                        spring.slip = None;
+                    }
+                }
+                return Err(e.into());
+            }
+        };
         for (i, v) in self.state.v.iter_mut().enumerate() {
             *v = if self.fixed[i] {
                 0.0
@@ -591,11 +686,7 @@ impl Simulator {
                 (q[i] - qn[i]) / h
             };
         }
-        for term in &mut self.potential.terms[..self.n_static] {
-            if let Term::Friction(spring, d) = term {
-                report.slipped += usize::from(spring.update_anchor(q[d[0]], limits[d[0]]));
-            }
-        }
+        report.slipped += finish_friction(&mut self.potential.terms[..self.n_static], &q, &limits);
         self.state.q = q;
         self.time += h;
         report.substeps += 1;
@@ -726,5 +817,45 @@ impl Simulator {
     /// The step settings.
     pub fn settings(&self) -> &StepSettings {
         &self.settings
+    }
+
+    /// Replaces the step settings from the next step on (e.g. a pull at another time step
+    /// from a state settled at a reference one). The Rayleigh-β damping forms are rebuilt
+    /// at the next step. Errors (and changes nothing) if the settings are invalid.
+    pub fn set_settings(&mut self, settings: StepSettings) -> Result<(), SimError> {
+        settings.validate()?;
+        if (settings.rayleigh_beta > 0.0) != (self.settings.rayleigh_beta > 0.0) {
+            // The Rayleigh-β damping terms exist only if β > 0 at construction.
+            return Err(SimError::Invalid(
+                "Rayleigh β damping cannot be switched on or off after construction".into(),
+            ));
+        }
+        self.settings = settings;
+        self.damping_built = None;
+        Ok(())
+    }
+}
+
+impl Clone for Simulator {
+    /// An independent copy of the simulator in its current state (the Newton solver's
+    /// cached sparsity pattern and factorization are rebuilt at the copy's first step).
+    fn clone(&self) -> Self {
+        Self {
+            topology: self.topology.clone(),
+            dofs: self.dofs.clone(),
+            params: self.params,
+            settings: self.settings.clone(),
+            potential: self.potential.clone(),
+            n_static: self.n_static,
+            segment_dofs: self.segment_dofs.clone(),
+            damped: self.damped.clone(),
+            wrap_ramp: self.wrap_ramp.clone(),
+            fixed: self.fixed.clone(),
+            state: self.state.clone(),
+            solver: None,
+            time: self.time,
+            damping_built: None,
+            compression: self.compression.clone(),
+        }
     }
 }

@@ -13,12 +13,12 @@
 //! | [`layout`] | initial positions and sliding coordinates from the chart | seed 000 §4.1 |
 //! | [`params`] | yarn parameters, Table 1 presets | seed 000 Table 1 |
 //! | [`state`] | generalized coordinates, DOF map, state-dependent segment mass matrix | seed 000 §3.2, physics notes |
-//! | [`forces`] | gravity, stretch, bending with jamming (Eq. 1), stitch wrapping (Eq. 2, Eqs. 7–13), stitch-contact length (Eq. 6), compression estimation at contact nodes (Eqs. 3–4, closed form and exact NNLS), sliding friction with anchored springs and the Coulomb bound μλ (Eq. 5), contact between adjacent loops (off by default), weave crossing shear with jamming, sphere and plane obstacles, inertia and Rayleigh damping forms; the summed [`forces::Potential`] | seed 000 §4, ref. 6 |
+//! | [`forces`] | gravity, stretch, bending with jamming (Eq. 1), stitch wrapping (Eq. 2, Eqs. 7–13), stitch-contact length (Eq. 6), compression estimation at contact nodes (Eqs. 3–4, closed form and exact NNLS), sliding friction with anchored springs and the Coulomb bound μλ (Eq. 5) with an optional return mapping, contact between adjacent loops (off by default), a floor on segments' material length (off by default), weave crossing shear with jamming, sphere and plane obstacles, inertia and Rayleigh damping forms; the summed [`forces::Potential`] | seed 000 §4, ref. 6 |
 //! | [`measure`] | edge curl and side-to-side width of knit swatches | seed 000 §3.1, §5.2.2, Figs. 5, 7 |
 //! | [`rest_shape`] | rest-shape bending compensation: repeat detection, relaxed characteristic rectangle, loop shapes applied to the whole chart | seed 000 §4.1, Fig. 6 |
 //! | [`scene`] | TOML scene files (knit or woven pattern, Table 1 preset + overrides, damping, force terms, crossing shear, obstacles, clamps with drivers, outputs); the `sim-persistent run` binary | issue 6 |
 //! | [`output`] | smooth rendering curves (per-node plane normals fitted by SVD, ±R yarn offsets, centripetal Catmull-Rom); OBJ, PLY, `.bcc` and PNG frame writers | seed 000 §3.2 |
-//! | [`integrator`] | backward Euler as one Newton minimization per step (step halving on failure) or linearized (one Newton step), sparse Cholesky or preconditioned CG, Rayleigh damping, pinned and driven nodes, obstacles, static equilibrium for quasi-static loading, clamp forces, per-term energies | seed 000 §4, §5 |
+//! | [`integrator`] | backward Euler as one Newton minimization per step (step halving on failure, optional friction return mapping) or linearized (one Newton step), sparse Cholesky or preconditioned CG, Rayleigh damping, pinned and driven nodes, obstacles, static equilibrium for quasi-static loading, clamp forces, per-term energies | seed 000 §4, §5 |
 //!
 //! Typical use: [`chart::Chart`] → [`topology::Topology::knit`] → [`layout::Layout::new`] →
 //! [`integrator::Simulator::new`] → [`integrator::Simulator::step`].
@@ -28,8 +28,12 @@
 //!
 //! Not implemented: stacked stitches and the reserved chart stitches (YO, K2TOG, SSK, M1),
 //! so the parallel-stack friction spring of Eq. 5; row-end turns of a continuous yarn;
-//! contact breaking (pull-out, Fig. 13). Known limits, measured: friction depends on the time
-//! step ([`forces::friction`], `persistent-time-vs-error`); garter is flat only in its
+//! contact breaking (pull-out, Fig. 13). Known limits, measured: with the paper's explicit
+//! anchor update (the default) friction acts as a viscous brake of coefficient ≈ `k_f dt`,
+//! so forces depend on the time step; the friction return mapping
+//! ([`integrator::StepSettings::friction_return_mapping`], with [`forces::segment_floor`])
+//! removes that but is slower and opt-in ([`forces::friction`], `persistent-time-vs-error`,
+//! the `friction_dt` example); garter is flat only in its
 //! interior (below); the rest-shape compensation of [`rest_shape`] does not yet start
 //! layouts closer to rest than the flat layout (measured there).
 //!

@@ -5,6 +5,10 @@
 //!
 //! ```toml
 //! dt = 1e-3            # time step (s); default 1e-3
+//! friction_return_mapping = 0   # re-solves per step for the implicit stick/slip decision
+//!                      # of friction (crate::forces::friction), e.g. 20 (with
+//!                      # [forces] loop_contact = true); default 0: the paper's explicit
+//!                      # anchor update after each step
 //! steps = 300          # number of steps; required
 //! output_every = 10    # write a frame every k steps (and the initial state); default 10
 //!                      # (the same as `[output] every`; give only one of them)
@@ -36,6 +40,8 @@
 //! gravity = false
 //! wrapping = true
 //! crossing_shear = true  # crossing shear with jamming (weaves only)
+//! loop_contact = false   # contact between adjacent loops (knits only); default false
+//! segment_floor = false  # floor on segments' material length; default false
 //!
 //! [crossing_shear]     # weaves; all optional (crate::forces::crossing_shear)
 //! stiffness = 2e-2     # k_x (N)
@@ -357,6 +363,12 @@ pub struct ForcesSpec {
     pub wrapping: bool,
     /// Crossing shear with jamming (weaves only).
     pub crossing_shear: bool,
+    /// Contact between adjacent loops (knits only; default false,
+    /// [`crate::forces::loop_contact`]).
+    pub loop_contact: bool,
+    /// Floor on the material length of segments (default false,
+    /// [`crate::forces::segment_floor`]).
+    pub segment_floor: bool,
 }
 
 impl Default for ForcesSpec {
@@ -370,6 +382,8 @@ impl Default for ForcesSpec {
             friction: f.friction,
             wrapping: f.wrapping,
             crossing_shear: f.crossing_shear,
+            loop_contact: f.loop_contact,
+            segment_floor: f.segment_floor,
         }
     }
 }
@@ -505,6 +519,10 @@ pub struct Scene {
     /// Time step (s).
     #[serde(default = "default_dt")]
     pub dt: f64,
+    /// Re-solves per step of the friction return mapping
+    /// ([`StepSettings::friction_return_mapping`]; 0: explicit anchor update).
+    #[serde(default = "default_friction_return_mapping")]
+    pub friction_return_mapping: usize,
     /// Number of steps.
     pub steps: usize,
     /// Write a frame every `output_every` steps (≥ 1; the same as `[output] every`, see
@@ -540,6 +558,10 @@ pub struct Scene {
 
 fn default_dt() -> f64 {
     1e-3
+}
+
+fn default_friction_return_mapping() -> usize {
+    StepSettings::default().friction_return_mapping
 }
 
 /// Steps between frames when neither `output_every` nor `[output] every` is given.
@@ -709,12 +731,14 @@ impl Scene {
             wrapping: f.wrapping,
             crossing_shear: f.crossing_shear,
             crossing_shear_params: self.crossing_shear.0,
-            ..ForceSet::default()
+            loop_contact: f.loop_contact,
+            segment_floor: f.segment_floor,
         };
         let settings = StepSettings {
             dt: self.dt,
             rayleigh_alpha: alpha,
             rayleigh_beta: beta,
+            friction_return_mapping: self.friction_return_mapping,
             ..StepSettings::default()
         };
         let mut sim = Simulator::new(topology, &layout, params, forces, settings)?;

@@ -7,9 +7,10 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 use rod::fd::{FdOptions, assert_stencil_derivatives, check_gradient, check_hessian};
 use sim_persistent::chart::Chart;
-use sim_persistent::forces::friction::AnchoredSpring;
+use sim_persistent::forces::friction::{AnchoredSpring, Slip};
 use sim_persistent::forces::gravity::Gravity;
 use sim_persistent::forces::quadratic::Quadratic;
+use sim_persistent::forces::segment_floor::SegmentFloor;
 use sim_persistent::forces::stitch_length::StitchLength;
 use sim_persistent::forces::wrapping::{StitchWrap, rest_angle_sign, wrap_pairs};
 use sim_persistent::forces::{ForceSet, Potential, build_terms};
@@ -83,6 +84,24 @@ proptest! {
     #[test]
     fn friction_anchored_spring_eq5(u in -L..L, anchor in -L..L, k in 1.0..1e5f64) {
         let s = AnchoredSpring::new(k, anchor);
+        assert_stencil_derivatives(&s, &pack::<1>(&[&[u]]), L);
+    }
+
+    /// The material-length floor, on both sides of its onset (active below `L_min`).
+    #[test]
+    fn segment_material_floor(u0 in -L..L, l in -0.2*L..2.0*L, floor in 0.1*L..L, k in 1.0..1e7f64) {
+        let s = SegmentFloor { stiffness: k, floor };
+        prop_assume!((l - floor).abs() > 1e-3 * L);
+        assert_stencil_derivatives(&s, &pack::<2>(&[&[u0, u0 + l]]), L);
+    }
+
+    /// The slipping mode of the return mapping: the constant Coulomb force.
+    #[test]
+    fn friction_slipping_coordinate(u in -L..L, anchor in -L..L, k in 1.0..1e5f64,
+                                    force in 0.0..1e-2f64, positive in proptest::bool::ANY) {
+        let mut s = AnchoredSpring::new(k, anchor);
+        let direction = if positive { 1.0 } else { -1.0 };
+        s.slip = Some(Slip { direction, force });
         assert_stencil_derivatives(&s, &pack::<1>(&[&[u]]), L);
     }
 
@@ -205,6 +224,50 @@ fn friction_slip_moves_the_anchor_to_the_maximal_stick_position() {
     assert!((s.stiffness * (-5e-6 - s.anchor) + 1e-3).abs() < 1e-15);
 }
 
+/// The return-mapping modes: a sticking coordinate past the stick limit starts slipping in
+/// the direction of its stretch, stays slipping while it stays past the limit on that side,
+/// sticks again when it falls back inside, and `finish_step` puts a slipped anchor at the
+/// maximal stick position. The energy is continuous (Huber) where the modes meet.
+#[test]
+fn friction_return_mapping_modes() {
+    let (k, f) = (1e3, 1e-3); // stick limit F/k = 1 µm
+    let mut s = AnchoredSpring::new(k, 0.0);
+    assert!(!s.classify(0.5e-6, f));
+    assert_eq!(s.slip, None);
+    assert!(s.classify(-3e-6, f));
+    assert_eq!(
+        s.slip,
+        Some(Slip {
+            direction: -1.0,
+            force: f
+        })
+    );
+    // Still beyond the limit on the same side: unchanged (no mode change counted).
+    assert!(!s.classify(-2e-6, f));
+    // Back inside the limit: sticks again.
+    assert!(s.classify(-0.5e-6, f));
+    assert_eq!(s.slip, None);
+    // Jumping to the other side starts slipping there.
+    assert!(s.classify(4e-6, f));
+    assert_eq!(s.slip.map(|p| p.direction), Some(1.0));
+    assert_eq!(s.anchor, 0.0, "classify never moves the anchor");
+    assert!(s.finish_step(4e-6, f));
+    assert_eq!(s.slip, None);
+    assert!((k * (4e-6 - s.anchor) - f).abs() < 1e-15);
+    // A sticking coordinate at the end of a step gets the explicit update (here: none).
+    let anchor = s.anchor;
+    assert!(!s.finish_step(anchor + 0.5e-6, f));
+    assert_eq!(s.anchor, anchor);
+    // Continuity of the energy at the stick limit.
+    let at_limit = SVector::<f64, 1>::new(anchor + f / k);
+    let stick = rod::Stencil::energy(&s, &at_limit);
+    s.slip = Some(Slip {
+        direction: 1.0,
+        force: f,
+    });
+    assert!((rod::Stencil::energy(&s, &at_limit) - stick).abs() <= 1e-12 * stick.abs().max(1e-30));
+}
+
 /// The assembled potential of a 3 × 3 seed-stitch swatch (every static term kind), at a
 /// perturbed layout: gradient vs central differences of the energy on every DOF, Hessian vs
 /// central differences of the gradient on every column.
@@ -216,7 +279,12 @@ fn assembled_potential_of_a_swatch() {
     let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).unwrap();
     let dofs = DofMap::new(&topo);
     let rest = State::from_layout(&topo, &dofs, &layout);
-    let terms = build_terms(&topo, &dofs, &params, &ForceSet::default(), &rest.q);
+    let forces = ForceSet {
+        loop_contact: true,
+        segment_floor: true,
+        ..ForceSet::default()
+    };
+    let terms = build_terms(&topo, &dofs, &params, &forces, &rest.q);
     let pot = Potential::new(dofs.n_dofs(), terms).unwrap();
     let kinds: Vec<_> = pot
         .energy_by_kind(&rest.q)
@@ -225,8 +293,9 @@ fn assembled_potential_of_a_swatch() {
         .collect();
     assert_eq!(
         kinds.len(),
-        6,
-        "gravity, stretch, bending, stitch length, friction, wrapping: {kinds:?}"
+        8,
+        "gravity, stretch, bending, stitch length, friction, wrapping, loop contact, \
+         segment floor: {kinds:?}"
     );
     // Deterministic perturbation: 0.1 mm in x, 0.05 mm in u.
     let mut q = rest.q.clone();

@@ -78,6 +78,39 @@ fn scene_runs_with_driven_clamps_and_writes_obj_frames() {
     }
 }
 
+/// The friction return mapping and the terms it needs are scene options: off by default,
+/// and when given they reach the simulator (settings and terms) and the scene steps with
+/// friction on.
+#[test]
+fn return_mapping_options_reach_the_simulator() {
+    use sim_persistent::forces::{Term, TermKind};
+    let defaults = parse(SCENE).unwrap();
+    assert_eq!(defaults.friction_return_mapping, 0);
+    assert!(!defaults.forces.loop_contact && !defaults.forces.segment_floor);
+    let text = SCENE
+        .replace("steps = 3\n", "steps = 3\nfriction_return_mapping = 20\n")
+        .replace(
+            "friction = false\n",
+            "friction = true\nloop_contact = true\nsegment_floor = true\n",
+        );
+    let scene = parse(&text).unwrap();
+    assert_eq!(scene.friction_return_mapping, 20);
+    let mut run = scene.build().unwrap();
+    assert_eq!(run.sim.settings().friction_return_mapping, 20);
+    let terms = run.sim.static_terms();
+    let floors = terms
+        .iter()
+        .filter(|t| t.kind() == TermKind::SegmentFloor)
+        .count();
+    assert_eq!(floors, run.sim.topology().segments().count());
+    assert!(terms.iter().any(|t| matches!(t, Term::Friction(..))));
+    assert!(terms.iter().any(|t| t.kind() == TermKind::LoopContact));
+    for _ in 0..scene.steps {
+        run.step().unwrap();
+    }
+    assert!(run.sim.state().q.iter().all(|v| v.is_finite()));
+}
+
 /// A misspelt key is rejected (deny_unknown_fields) at its line and column.
 #[test]
 fn unknown_key_names_line_and_column() {

@@ -7,6 +7,14 @@
 //! layout (it compresses in width), then its first and last columns are clamped where they
 //! settled and the right clamp is driven away at a constant speed, slow against the swatch's
 //! dynamics, with implicit Euler at dt = 1 ms. The force is the moving clamp's pull.
+//!
+//! **Caveat, measured.** The figure uses the paper's explicit friction update, under which
+//! friction acts as a viscous brake of coefficient ≈ `k_f dt` on sliding
+//! (`sim_persistent::forces::friction`). The pull therefore depends on the step: a 4 × 4
+//! rib pulled 8 mm gives 2.7, 0.88, 0.38 and 0.10 N at 1, 0.25, 0.1 and 0.025 ms, and
+//! 4–5 mN at every one of these steps with Coulomb-consistent friction (the return
+//! mapping; `friction_dt` example). The regimes this figure shows are those of the paper's
+//! model at its 1 ms step, not a step-converged response.
 
 use crate::plot::{LineChart, Series, save_side_by_side};
 use crate::studies::persistent::{RibStretch, RibStretchRun, SwatchSettings, kind_name};

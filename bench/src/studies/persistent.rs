@@ -36,6 +36,9 @@ pub struct SwatchSettings {
     pub settle_time: f64,
     /// The force terms.
     pub forces: ForceSet,
+    /// Re-solves of the friction return mapping per step
+    /// ([`StepSettings::friction_return_mapping`]; 0: the paper's explicit anchor update).
+    pub friction_return_mapping: usize,
     /// The yarn.
     pub params: YarnParams,
 }
@@ -48,6 +51,7 @@ impl Default for SwatchSettings {
             dt: 1e-3,
             newton_abs_tol: 1e-7,
             settle_time: 0.3,
+            friction_return_mapping: StepSettings::default().friction_return_mapping,
             forces: ForceSet {
                 gravity: false,
                 ..ForceSet::default()
@@ -63,6 +67,7 @@ impl SwatchSettings {
         let mut s = StepSettings {
             dt: self.dt,
             rayleigh_alpha: ALPHA,
+            friction_return_mapping: self.friction_return_mapping,
             ..StepSettings::default()
         };
         s.newton.gradient_abs_tol = self.newton_abs_tol;
@@ -229,18 +234,61 @@ pub struct RibStretchRun {
     pub seconds: f64,
 }
 
+/// A rib of a [`RibStretch`] settled free (before its clamps close).
+#[derive(Clone)]
+pub struct SettledRib {
+    /// The simulator in the settled state.
+    pub sim: Simulator,
+    /// Side-to-side width of the settled swatch over its laid-out width.
+    pub width_ratio: f64,
+    /// Newton iterations of the settle.
+    pub newton_iterations: usize,
+    /// Wall time of the settle (s).
+    pub seconds: f64,
+}
+
 impl RibStretch {
-    /// Runs the experiment.
+    /// Runs the experiment: settles and pulls with [`RibStretch::settings`]. The run's
+    /// Newton iterations and wall time cover both.
     pub fn run(&self) -> anyhow::Result<RibStretchRun> {
+        let settled = self.settle()?;
+        let mut run = self.pull(&settled, &self.settings)?;
+        run.newton_iterations += settled.newton_iterations;
+        run.seconds += settled.seconds;
+        Ok(run)
+    }
+
+    /// Settles the rib free with [`RibStretch::settings`].
+    pub fn settle(&self) -> anyhow::Result<SettledRib> {
         let start = Instant::now();
         let s = &self.settings;
         let chart = Chart::rib(self.width, self.height, 2, 2)?;
         let (mut sim, layout) = swatch(&chart, s)?;
-        let mut newton_iterations =
+        let newton_iterations =
             run_steps(&mut sim, s.steps(s.settle_time)).context("settling the rib")?;
         let topo = sim.topology().clone();
-        let settled_width_ratio = sim_persistent::measure::course_width(&topo, &positions(&sim))?
+        let width_ratio = sim_persistent::measure::course_width(&topo, &positions(&sim))?
             / sim_persistent::measure::course_width(&topo, &layout.positions)?;
+        Ok(SettledRib {
+            sim,
+            width_ratio,
+            newton_iterations,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Clamps a copy of `settled` and pulls it with the time step, Newton tolerance and
+    /// friction update of `settings` (its yarn and force terms must be the settle's). The
+    /// run's Newton iterations and wall time cover the pull only.
+    pub fn pull(
+        &self,
+        settled: &SettledRib,
+        settings: &SwatchSettings,
+    ) -> anyhow::Result<RibStretchRun> {
+        let start = Instant::now();
+        let s = settings;
+        let mut sim = settled.sim.clone();
+        sim.set_settings(s.step_settings())?;
         let SideClamps {
             left, right, axis, ..
         } = SideClamps::pin(&mut sim, self.width, self.height)?;
@@ -259,6 +307,7 @@ impl RibStretch {
         };
         let mut samples = vec![sample(&sim, 0.0, 0)];
         let mut slipped = 0;
+        let mut newton_iterations = 0;
         for k in 1..=steps {
             sim.displace_pinned_nodes(&right, axis * per_step)?;
             let report = sim
@@ -272,7 +321,7 @@ impl RibStretch {
             }
         }
         Ok(RibStretchRun {
-            settled_width_ratio,
+            settled_width_ratio: settled.width_ratio,
             samples,
             dofs: sim.dofs().n_dofs(),
             steps,

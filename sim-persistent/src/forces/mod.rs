@@ -12,6 +12,7 @@
 //! | sliding friction (anchored springs) | [`friction`] | `u` per free sliding coordinate | seed 000 Eq. 5 |
 //! | compression estimation at stacked nodes (gives friction its bound μλ; not a potential) | [`compression`] | — | seed 000 Eqs. 3–4, §4.3 |
 //! | contact between adjacent loops (knits, off by default) | [`loop_contact`] | `(x_a, x_b)` per candidate node pair | seed 000 §4, ref. 6 |
+//! | floor on a segment's material length (off by default; ours) | [`segment_floor`] | `(u₀, u₁)` per segment | — |
 //! | stitch wrapping (knits only) | [`wrapping`] | `(x₀, x₁, x₄, x₃)` per pair of opposite segments | seed 000 Eq. 2, Eqs. 7–13 |
 //! | crossing shear with jamming (weaves only) | [`crossing_shear`] | `(x_a, x₀, x_b)` per crossing quadrant | ref. 6 (Cirio 2014) shear, seed 000 §4.1 jamming |
 //! | sphere / plane obstacle contact (only with obstacles) | [`obstacle`] | `x` per node and obstacle | seed 000 §5.2.1 (penalty, C²) |
@@ -28,6 +29,7 @@ pub mod gravity;
 pub mod loop_contact;
 pub mod obstacle;
 pub mod quadratic;
+pub mod segment_floor;
 pub mod stitch_length;
 pub mod stretch;
 pub mod wrapping;
@@ -44,6 +46,7 @@ use quadratic::Quadratic;
 use rod::Stencil;
 use rod::bending::AngleBending;
 use rod::stretch::SlidingSegment;
+use segment_floor::SegmentFloor;
 use stitch_length::StitchLength;
 use wrapping::StitchWrap;
 
@@ -74,6 +77,10 @@ pub struct ForceSet {
     /// stockinette curl as much as the garter curl it was hoped to remove (measurements in
     /// [`loop_contact`]).
     pub loop_contact: bool,
+    /// Floor on the material length of every segment ([`segment_floor`]). Default off:
+    /// with the paper's explicit friction update segments do not drain; Coulomb-consistent
+    /// friction ([`crate::integrator::StepSettings::friction_return_mapping`]) needs it.
+    pub segment_floor: bool,
 }
 
 impl Default for ForceSet {
@@ -89,6 +96,7 @@ impl Default for ForceSet {
             crossing_shear: true,
             crossing_shear_params: CrossingShearParams::default(),
             loop_contact: false,
+            segment_floor: false,
         }
     }
 }
@@ -114,6 +122,8 @@ pub enum TermKind {
     Obstacle,
     /// Contact between adjacent loops (penalty).
     LoopContact,
+    /// Floor on a segment's material length (penalty).
+    SegmentFloor,
     /// Inertia (+ mass damping) of an implicit step.
     Inertia,
     /// Stiffness (Rayleigh β) damping of an implicit step.
@@ -142,6 +152,8 @@ pub enum Term {
     Obstacle(ObstacleContact, [usize; 3]),
     /// Contact penalty of one pair of nodes on adjacent loops (their positions).
     LoopContact(LoopContact, [usize; 6]),
+    /// Material-length floor of one segment (its two sliding coordinates).
+    SegmentFloor(SegmentFloor, [usize; 2]),
     /// Inertia of a segment (boxed: the per-step matrices dwarf the other variants).
     Inertia(Box<Quadratic<8>>, [usize; 8]),
     /// Stiffness damping of a 1-DOF term.
@@ -169,6 +181,7 @@ macro_rules! with_stencil {
             Term::CrossingShear($s, $d) => $body,
             Term::Obstacle($s, $d) => $body,
             Term::LoopContact($s, $d) => $body,
+            Term::SegmentFloor($s, $d) => $body,
             Term::Inertia($s, $d) => $body,
             Term::Damping1($s, $d) => $body,
             Term::Damping2($s, $d) => $body,
@@ -197,6 +210,7 @@ impl Term {
             Term::CrossingShear(..) => TermKind::CrossingShear,
             Term::Obstacle(..) => TermKind::Obstacle,
             Term::LoopContact(..) => TermKind::LoopContact,
+            Term::SegmentFloor(..) => TermKind::SegmentFloor,
             Term::Inertia(..) => TermKind::Inertia,
             Term::Damping1(..)
             | Term::Damping2(..)
@@ -397,6 +411,12 @@ pub fn build_terms(
         }
         if forces.stretch {
             terms.push(Term::Stretch(stretch, d));
+        }
+        if forces.segment_floor {
+            terms.push(Term::SegmentFloor(
+                SegmentFloor::for_yarn(params),
+                [d[3], d[7]],
+            ));
         }
     }
     if forces.bending && bend.stiffness > 0.0 {
