@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! cargo run --release -p sim-persistent --example friction_dt -- \
-//!     [--size 4x4] [--extension 8e-3] [--dts 1e-3,2.5e-4,1e-4,2.5e-5] [--floor]
+//!     [--size 4x4] [--extension 8e-3] [--dts 1e-3,2.5e-4,1e-4,2.5e-5] [--loop-contact] [--no-floor]
 //! ```
 //!
 //! A 2 × 2 rib of `--size` stitches × rows (Table 1 sweater yarn, loop width 3 mm, no
@@ -14,9 +14,9 @@
 //! only) and the right clamp is pulled at 0.1 m/s over `--extension` (m), once per time
 //! step of `--dts` with the explicit update and once with the return mapping (20
 //! re-solves). Printed: the pull at the end, the slips and Newton iterations of the pull,
-//! and the wall time. With `--floor` every run also has the segment floor and the contact
-//! between adjacent loops (which the return mapping needs: without them draining segments
-//! collapse and the pull fails, as the output then shows).
+//! and the wall time. `--loop-contact` adds the contact between adjacent loops;
+//! `--no-floor` removes the segment floor (on by default), which the return mapping needs:
+//! without it draining segments collapse and the pull fails, as the output then shows.
 
 use rod::geometry::V3;
 use sim_persistent::chart::Chart;
@@ -39,7 +39,8 @@ fn main() {
     let mut size = (4usize, 4usize);
     let mut extension = 8e-3;
     let mut dts = vec![1e-3, 2.5e-4, 1e-4, 2.5e-5];
-    let mut floor = false;
+    let mut floor = true;
+    let mut loop_contact = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         let mut value = || args.next().unwrap_or_else(|| panic!("{a} needs a value"));
@@ -56,7 +57,8 @@ fn main() {
                     .map(|d| d.parse().expect("--dts in s"))
                     .collect()
             }
-            "--floor" => floor = true,
+            "--no-floor" => floor = false,
+            "--loop-contact" => loop_contact = true,
             _ => panic!("unknown argument {a} (see the module documentation)"),
         }
     }
@@ -68,7 +70,7 @@ fn main() {
     let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).expect("layout");
     let forces = ForceSet {
         gravity: false,
-        loop_contact: floor,
+        loop_contact,
         segment_floor: floor,
         ..ForceSet::default()
     };
@@ -90,10 +92,11 @@ fn main() {
         settled.dofs().n_dofs(),
         start.elapsed().as_secs_f64(),
         1e3 * extension,
-        if floor {
-            " (segment floor and loop contact on)"
-        } else {
-            ""
+        match (floor, loop_contact) {
+            (true, false) => "",
+            (true, true) => " (with loop contact)",
+            (false, false) => " (without the segment floor)",
+            (false, true) => " (with loop contact, without the segment floor)",
         }
     );
     println!("dt (ms) | update | pull at the end (N) | slips | Newton iterations | wall (s)");

@@ -109,9 +109,9 @@ pub struct StepSettings {
     /// (the return mapping of [`crate::forces::friction`], e.g. 20); `0` moves the anchors
     /// only after the step, as the paper does (explicit update: friction then grows with the
     /// step). Default 0, the paper's model: with Coulomb-consistent friction yarns slide
-    /// freely through uncompressed contacts and the model has nothing that stops a segment
-    /// from draining until its end nodes meet (measured in [`crate::forces::friction`]), so
-    /// the return mapping needs [`crate::forces::ForceSet::loop_contact`] and is opt-in. A
+    /// freely through uncompressed contacts, and the return mapping needs
+    /// [`crate::forces::ForceSet::segment_floor`] (default on) and, for consistent results,
+    /// [`crate::forces::ForceSet::loop_contact`] (measured in [`crate::forces::friction`]). A
     /// step whose modes still change after the last re-solve is kept, its anchors get the
     /// explicit update, and [`StepReport::friction_unresolved`] counts it.
     pub friction_return_mapping: usize,

@@ -41,7 +41,7 @@
 //! wrapping = true
 //! crossing_shear = true  # crossing shear with jamming (weaves only)
 //! loop_contact = false   # contact between adjacent loops (knits only); default false
-//! segment_floor = false  # floor on segments' material length; default false
+//! segment_floor = true   # floor on segments' material length (ours); default true
 //!
 //! [crossing_shear]     # weaves; all optional (crate::forces::crossing_shear)
 //! stiffness = 2e-2     # k_x (N)
@@ -366,7 +366,7 @@ pub struct ForcesSpec {
     /// Contact between adjacent loops (knits only; default false,
     /// [`crate::forces::loop_contact`]).
     pub loop_contact: bool,
-    /// Floor on the material length of segments (default false,
+    /// Floor on the material length of segments (default true,
     /// [`crate::forces::segment_floor`]).
     pub segment_floor: bool,
 }

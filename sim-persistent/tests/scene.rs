@@ -78,20 +78,20 @@ fn scene_runs_with_driven_clamps_and_writes_obj_frames() {
     }
 }
 
-/// The friction return mapping and the terms it needs are scene options: off by default,
-/// and when given they reach the simulator (settings and terms) and the scene steps with
-/// friction on.
+/// The friction return mapping and the terms it needs are scene options (the return
+/// mapping and loop contact off by default, the segment floor on), and when given they
+/// reach the simulator (settings and terms) and the scene steps with friction on.
 #[test]
 fn return_mapping_options_reach_the_simulator() {
     use sim_persistent::forces::{Term, TermKind};
     let defaults = parse(SCENE).unwrap();
     assert_eq!(defaults.friction_return_mapping, 0);
-    assert!(!defaults.forces.loop_contact && !defaults.forces.segment_floor);
+    assert!(!defaults.forces.loop_contact && defaults.forces.segment_floor);
     let text = SCENE
         .replace("steps = 3\n", "steps = 3\nfriction_return_mapping = 20\n")
         .replace(
             "friction = false\n",
-            "friction = true\nloop_contact = true\nsegment_floor = true\n",
+            "friction = true\nloop_contact = true\n",
         );
     let scene = parse(&text).unwrap();
     assert_eq!(scene.friction_return_mapping, 20);

@@ -32,8 +32,8 @@
 //! stiffness switches from `k_f` to 0 over `F_max/k_f`). Static solves keep the explicit
 //! update (without inertia nothing bounds a released coordinate within the solve).
 //!
-//! **Measured** (the `friction_dt` example: a settled 4 × 4 rib, Table 1 sweater yarn,
-//! pulled 8 mm at 0.1 m/s, with the segment floor and loop contact):
+//! **Measured** (the `friction_dt` example with `--loop-contact`: a settled 4 × 4 rib,
+//! Table 1 sweater yarn, pulled 8 mm at 0.1 m/s, with the segment floor and loop contact):
 //!
 //! | dt (ms) | explicit update: pull (N) | return mapping: pull (N) | Newton iterations (explicit / return mapping) |
 //! |---|---|---|---|
@@ -49,10 +49,12 @@
 //! wales (`tests/friction.rs`) shows the same: the return mapping is 5 % / 24 % off its
 //! 0.125 ms pull at 1 / 4 ms, the explicit update 150 % / 168 %. The return mapping costs
 //! 4–7× the Newton iterations (3–11 re-solves per step while coordinates slip), fails to
-//! converge at 10 ms in `persistent-time-vs-error`, and needs
-//! [`super::segment_floor`] and [`super::loop_contact`]: without them freely sliding yarns
-//! drain segments until their nodes meet and the step fails (at 1.6–1.9 mm of that pull).
-//! It is therefore opt-in; the figures use the paper's update.
+//! converge at 10 ms in `persistent-time-vs-error`, and needs [`super::segment_floor`]
+//! (on by default): without it freely sliding yarns drain segments until their nodes meet
+//! and the step fails (at 1.6–1.9 mm of that pull). Without [`super::loop_contact`] (off
+//! by default) the return-mapping pulls complete but scatter (17–53 mN over the same
+//! steps): adjacent loops then pass through each other. It is therefore opt-in; the
+//! figures use the paper's update (`rib-stretch` also draws the return mapping's pull).
 //!
 //! The slip force is the Coulomb bound `F_max = μ λ` (Eq. 5), with λ the compression of the
 //! coordinate's contacts estimated by Eqs. 3–4 at the state at the start of the step

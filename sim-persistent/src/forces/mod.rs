@@ -12,7 +12,7 @@
 //! | sliding friction (anchored springs) | [`friction`] | `u` per free sliding coordinate | seed 000 Eq. 5 |
 //! | compression estimation at stacked nodes (gives friction its bound μλ; not a potential) | [`compression`] | — | seed 000 Eqs. 3–4, §4.3 |
 //! | contact between adjacent loops (knits, off by default) | [`loop_contact`] | `(x_a, x_b)` per candidate node pair | seed 000 §4, ref. 6 |
-//! | floor on a segment's material length (off by default; ours) | [`segment_floor`] | `(u₀, u₁)` per segment | — |
+//! | floor on a segment's material length (ours) | [`segment_floor`] | `(u₀, u₁)` per segment | — |
 //! | stitch wrapping (knits only) | [`wrapping`] | `(x₀, x₁, x₄, x₃)` per pair of opposite segments | seed 000 Eq. 2, Eqs. 7–13 |
 //! | crossing shear with jamming (weaves only) | [`crossing_shear`] | `(x_a, x₀, x_b)` per crossing quadrant | ref. 6 (Cirio 2014) shear, seed 000 §4.1 jamming |
 //! | sphere / plane obstacle contact (only with obstacles) | [`obstacle`] | `x` per node and obstacle | seed 000 §5.2.1 (penalty, C²) |
@@ -77,9 +77,12 @@ pub struct ForceSet {
     /// stockinette curl as much as the garter curl it was hoped to remove (measurements in
     /// [`loop_contact`]).
     pub loop_contact: bool,
-    /// Floor on the material length of every segment ([`segment_floor`]). Default off:
-    /// with the paper's explicit friction update segments do not drain; Coulomb-consistent
-    /// friction ([`crate::integrator::StepSettings::friction_return_mapping`]) needs it.
+    /// Floor on the material length of every segment ([`segment_floor`]; ours). Default
+    /// on: without it a segment can drain until its nodes meet, which is what ended the
+    /// stretched runs of the stability study at 5 ms steps and quasi-static stretches at
+    /// 30 % (measured there), and Coulomb-consistent friction
+    /// ([`crate::integrator::StepSettings::friction_return_mapping`]) drains segments
+    /// within milliseconds without it.
     pub segment_floor: bool,
 }
 
@@ -96,7 +99,7 @@ impl Default for ForceSet {
             crossing_shear: true,
             crossing_shear_params: CrossingShearParams::default(),
             loop_contact: false,
-            segment_floor: false,
+            segment_floor: true,
         }
     }
 }
