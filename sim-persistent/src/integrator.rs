@@ -82,7 +82,8 @@ pub struct StepSettings {
     /// Rayleigh stiffness-damping coefficient β (s). Default 0 (Table 1 uses 0.01–0.1).
     pub rayleigh_beta: f64,
     /// Newton settings of each step. Default: `solver` defaults with a relative gradient
-    /// tolerance of 1e-9, at most 50 iterations and no per-stencil SPD projection: the
+    /// tolerance of 1e-9, at most 100 iterations (a 10 ms step of the hanging swatch of
+    /// `examples/stability.rs` needs 51–80) and no per-stencil SPD projection: the
     /// inertia term keeps the step's Hessian positive definite for cloth-sized steps, plain
     /// Newton then converges in 2–3 iterations where projection needs ≈ 5 (and projects
     /// every 8 × 8 and 12 × 12 block each iteration); the solver's diagonal shift still
@@ -124,7 +125,7 @@ impl Default for StepSettings {
             rayleigh_alpha: 0.0,
             rayleigh_beta: 0.0,
             newton: NewtonSettings {
-                max_iterations: 50,
+                max_iterations: 100,
                 gradient_rel_tol: 1e-9,
                 project_spd: false,
                 ..NewtonSettings::default()

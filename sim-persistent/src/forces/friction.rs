@@ -48,8 +48,9 @@
 //! at its 1 ms step makes it 600 times stiffer. A 4 × 4 garter pulled 1.2 mm along its
 //! wales (`tests/friction.rs`) shows the same: the return mapping is 5 % / 24 % off its
 //! 0.125 ms pull at 1 / 4 ms, the explicit update 150 % / 168 %. The return mapping costs
-//! 4–7× the Newton iterations (3–11 re-solves per step while coordinates slip), fails to
-//! converge at 10 ms in `persistent-time-vs-error`, and needs [`super::segment_floor`]
+//! 4–7× the Newton iterations (3–11 re-solves per step while coordinates slip), its own
+//! error grows to 33–58 % of a millinewton pull at 5–10 ms (`persistent-time-vs-error`),
+//! and it needs [`super::segment_floor`]
 //! (on by default): without it freely sliding yarns drain segments until their nodes meet
 //! and the step fails (at 1.6–1.9 mm of that pull). Without [`super::loop_contact`] (off
 //! by default) the return-mapping pulls complete but scatter (17–53 mN over the same
