@@ -15,8 +15,7 @@
 //! What it shows (measured, quick mode, 4 × 4 rib pulled 8 mm at 0.1 m/s; see
 //! reports/README.md for the current numbers): with the return mapping the error is 6 %
 //! of the (small, ≈ 5 mN) reference pull at dt = 0.5 and 1 ms, 13 % at 2 ms and 33–58 %
-//! at 5–10 ms (not monotone: at these steps single slips of a few coordinates shift a
-//! millinewton pull); with the paper's explicit anchor update the pull is 200–1100 times the
+//! at 5–10 ms (not monotone in dt; not investigated); with the paper's explicit anchor update the pull is 200–1400 times the
 //! reference's, growing with dt: within a step a coordinate that slides `Δu` meets the
 //! spring force `k_f Δu`, far above `μλ`, so friction acts as a viscous brake of
 //! coefficient ≈ `k_f dt` that the explicit update only loses for steps near a microsecond
