@@ -99,7 +99,9 @@ fn main() {
             (false, true) => " (with loop contact, without the segment floor)",
         }
     );
-    println!("dt (ms) | update | pull at the end (N) | slips | Newton iterations | wall (s)");
+    println!(
+        "dt (ms) | update | pull at the end (N) | slips | Newton iterations | unresolved steps | wall (s)"
+    );
     for &dt in &dts {
         for return_mapping in [0, 20] {
             let mut sim = settled.clone();
@@ -115,7 +117,7 @@ fn main() {
             sim.pin_nodes(&right).expect("pin");
             let axis = (centroid(&sim, &right) - centroid(&sim, &left)).normalize();
             let steps = (extension / (0.1 * dt)).round() as usize;
-            let (mut slips, mut iterations) = (0, 0);
+            let (mut slips, mut iterations, mut unresolved) = (0, 0, 0);
             let start = Instant::now();
             let mut failure = None;
             for k in 0..steps {
@@ -125,6 +127,7 @@ fn main() {
                     Ok(r) => {
                         slips += r.slipped;
                         iterations += r.newton_iterations;
+                        unresolved += r.friction_unresolved;
                     }
                     Err(e) => {
                         failure = Some(format!(
@@ -144,7 +147,7 @@ fn main() {
             let pull = failure
                 .unwrap_or_else(|| format!("{:.4e}", -sim.force_on_nodes(&right).dot(&axis)));
             println!(
-                "{:.4} | {update} | {pull} | {slips} | {iterations} | {:.1}",
+                "{:.4} | {update} | {pull} | {slips} | {iterations} | {unresolved} | {:.1}",
                 1e3 * dt,
                 start.elapsed().as_secs_f64()
             );

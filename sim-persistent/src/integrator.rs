@@ -114,7 +114,11 @@ pub struct StepSettings {
     /// [`crate::forces::ForceSet::segment_floor`] (default on) and, for consistent results,
     /// [`crate::forces::ForceSet::loop_contact`] (measured in [`crate::forces::friction`]). A
     /// step whose modes still change after the last re-solve is kept, its anchors get the
-    /// explicit update, and [`StepReport::friction_unresolved`] counts it.
+    /// explicit update, and [`StepReport::friction_unresolved`] counts it. With Rayleigh
+    /// β > 0 the friction springs get no β-damping form under the return mapping (it would
+    /// brake slipping coordinates by `β k_f u̇`). With
+    /// [`StepSettings::linearized_implicit_euler`] each re-solve adds one more Newton
+    /// iteration without line search, so the step is no longer a single linearized solve.
     pub friction_return_mapping: usize,
 }
 
@@ -360,6 +364,12 @@ impl Simulator {
         let mut damped = Vec::new();
         if settings.rayleigh_beta > 0.0 {
             for k in 0..n_static {
+                // Under the return mapping a slipping coordinate feels only the Coulomb
+                // force: a β-damping form of its spring would brake it by β k_f u̇.
+                let friction = matches!(terms[k], Term::Friction(..));
+                if friction && settings.friction_return_mapping > 0 {
+                    continue;
+                }
                 if let Some(t) = terms[k].damping_form(&state.q, 0.0) {
                     damped.push(k);
                     terms.push(t);
@@ -822,9 +832,22 @@ impl Simulator {
 
     /// Replaces the step settings from the next step on (e.g. a pull at another time step
     /// from a state settled at a reference one). The Rayleigh-β damping forms are rebuilt
-    /// at the next step. Errors (and changes nothing) if the settings are invalid.
+    /// at the next step; a changed [`StepSettings::wrapping_ramp_time`] moves the wrapping
+    /// rest angles to the new ramp's values at the current time (a jump if the ramp is
+    /// still running). Errors (and changes nothing) if the settings are invalid, switch
+    /// Rayleigh-β damping on or off, or, with β > 0, switch the friction return mapping on
+    /// or off (the friction springs are β-damped only without it).
     pub fn set_settings(&mut self, settings: StepSettings) -> Result<(), SimError> {
         settings.validate()?;
+        if settings.rayleigh_beta > 0.0
+            && (settings.friction_return_mapping > 0) != (self.settings.friction_return_mapping > 0)
+        {
+            return Err(SimError::Invalid(
+                "with Rayleigh β damping the friction return mapping cannot be switched on or \
+                 off after construction (friction springs are β-damped only without it)"
+                    .into(),
+            ));
+        }
         if (settings.rayleigh_beta > 0.0) != (self.settings.rayleigh_beta > 0.0) {
             // The Rayleigh-β damping terms exist only if β > 0 at construction.
             return Err(SimError::Invalid(
@@ -855,7 +878,7 @@ impl Clone for Simulator {
             state: self.state.clone(),
             solver: None,
             time: self.time,
-            damping_built: None,
+            damping_built: self.damping_built,
             compression: self.compression.clone(),
         }
     }

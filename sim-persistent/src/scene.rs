@@ -36,7 +36,7 @@
 //! alpha = 10.0
 //! beta = 0.0
 //!
-//! [forces]             # which terms exist; every one defaults to true
+//! [forces]             # which terms exist; all default to true but loop_contact
 //! gravity = false
 //! wrapping = true
 //! crossing_shear = true  # crossing shear with jamming (weaves only)
@@ -345,7 +345,7 @@ pub struct DampingSpec {
     pub beta: Option<f64>,
 }
 
-/// `[forces]`: which terms exist (all default to true).
+/// `[forces]`: which terms exist (all default to true except `loop_contact`).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct ForcesSpec {

@@ -13,7 +13,7 @@ use sim_persistent::forces::quadratic::Quadratic;
 use sim_persistent::forces::segment_floor::SegmentFloor;
 use sim_persistent::forces::stitch_length::StitchLength;
 use sim_persistent::forces::wrapping::{StitchWrap, rest_angle_sign, wrap_pairs};
-use sim_persistent::forces::{ForceSet, Potential, build_terms};
+use sim_persistent::forces::{ForceSet, Potential, TermKind, build_terms};
 use sim_persistent::forces::{bending::bending_stencil, stretch::stretch_stencil};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
@@ -308,6 +308,36 @@ fn assembled_potential_of_a_swatch() {
             q[dofs.u(n, s)] += 5e-5 * ((5 * n + s) as f64 * 0.71).cos();
         }
     }
+    // Every segment has its floor, on its two sliding coordinates; drain one segment below
+    // the floor so that its term is active in the check.
+    let segment_u: Vec<[usize; 2]> = topo
+        .segments()
+        .map(|(y, i)| {
+            let p = &topo.yarns[y].passes;
+            [
+                dofs.u(p[i].node, p[i].slot),
+                dofs.u(p[i + 1].node, p[i + 1].slot),
+            ]
+        })
+        .collect();
+    let floors: Vec<&[usize]> = pot
+        .terms
+        .iter()
+        .filter(|t| t.kind() == TermKind::SegmentFloor)
+        .map(|t| t.dofs())
+        .collect();
+    assert_eq!(floors.len(), segment_u.len());
+    for (f, u) in floors.iter().zip(&segment_u) {
+        assert_eq!(*f, u.as_slice());
+    }
+    let [u0, u1] = segment_u[1];
+    q[u1] = q[u0] + 0.2e-3; // below L_min = R/2 = 0.375 mm
+    let floor_energy = pot
+        .energy_by_kind(&q)
+        .into_iter()
+        .find(|(k, _)| *k == TermKind::SegmentFloor)
+        .map(|(_, e)| e);
+    assert!(floor_energy.is_some_and(|e| e > 0.0), "{floor_energy:?}");
     let mut asm = Assembler::new(&pot).unwrap();
     let assembled = asm.assemble(&pot, &q, false).unwrap();
     let energy = assembled.energy;

@@ -349,16 +349,18 @@ fn steps_are_bit_identical_for_one_and_two_threads() {
 }
 
 /// A clone continues exactly like the original (the copy rebuilds only the Newton solver's
-/// caches), and `set_settings` changes the step from then on but refuses to switch
+/// caches; its lagged damping forms keep their refresh cycle), and `set_settings` changes the step from then on but refuses to switch
 /// Rayleigh-β damping on or off (its terms exist only if β > 0 at construction).
 #[test]
 fn clones_continue_identically_and_settings_can_change() {
     let chart = Chart::garter(3, 3).unwrap();
     let mut params = YarnParams::sweater();
     params.gravity *= 0.0;
+    // Lagged β-damping forms (refreshed every 3 steps): the copy is taken mid-cycle.
     let settings = StepSettings {
         rayleigh_alpha: 10.0,
         rayleigh_beta: 0.01,
+        damping_refresh_steps: 3,
         ..StepSettings::default()
     };
     let mut sim = simulator(&chart, params, ForceSet::default(), settings.clone());
@@ -393,4 +395,72 @@ fn clones_continue_identically_and_settings_can_change() {
         0.5e-3,
         "a refused change leaves the settings"
     );
+}
+
+/// `pin_sliding` fixes every sliding coordinate through the given nodes (a gripping clamp)
+/// and nothing else; an unknown node is an error.
+#[test]
+fn pin_sliding_fixes_the_sliding_coordinates_of_its_nodes() {
+    let chart = Chart::garter(3, 3).unwrap();
+    let mut params = YarnParams::sweater();
+    params.gravity *= 0.0;
+    let mut sim = simulator(&chart, params, ForceSet::default(), StepSettings::default());
+    let before = sim.fixed().to_vec();
+    let nodes = bind_off_nodes(&chart);
+    sim.pin_sliding(&nodes).unwrap();
+    let dofs = sim.dofs().clone();
+    for (n, node) in sim.topology().nodes.iter().enumerate() {
+        for s in 0..node.passes.len() {
+            let i = dofs.u(n, s);
+            assert_eq!(
+                sim.fixed()[i],
+                before[i] || nodes.contains(&n),
+                "node {n} slot {s}"
+            );
+        }
+        for k in 0..3 {
+            assert_eq!(sim.fixed()[dofs.x(n) + k], before[dofs.x(n) + k]);
+        }
+    }
+    assert!(matches!(
+        sim.pin_sliding(&[usize::MAX]),
+        Err(SimError::Invalid(_))
+    ));
+}
+
+/// With Rayleigh β > 0 the friction springs are β-damped under the paper's update but not
+/// under the return mapping (the form would brake slipping coordinates), and the return
+/// mapping cannot be switched on or off later.
+#[test]
+fn return_mapping_leaves_friction_springs_undamped() {
+    use sim_persistent::forces::TermKind;
+    let chart = Chart::garter(3, 3).unwrap();
+    let damped = |return_mapping: usize| {
+        let settings = StepSettings {
+            rayleigh_beta: 0.01,
+            friction_return_mapping: return_mapping,
+            ..StepSettings::default()
+        };
+        let sim = simulator(&chart, YarnParams::sweater(), ForceSet::default(), settings);
+        let count = |kind| {
+            sim.step_potential()
+                .terms
+                .iter()
+                .filter(|t| t.kind() == kind)
+                .count()
+        };
+        (count(TermKind::Damping), count(TermKind::Friction), sim)
+    };
+    let (explicit, friction, mut sim) = damped(0);
+    let (implicit, _, _) = damped(20);
+    assert!(friction > 0);
+    assert_eq!(explicit - implicit, friction);
+    let settings = StepSettings {
+        friction_return_mapping: 20,
+        ..sim.settings().clone()
+    };
+    assert!(matches!(
+        sim.set_settings(settings),
+        Err(SimError::Invalid(_))
+    ));
 }

@@ -231,14 +231,15 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     summary.push((
         "Coulomb-consistent friction (settled with the paper's update, pulled with the return mapping; segment floor, loop contact)".to_string(),
         format!(
-            "settled width ratio {:.3}; pull at the end {:.3e} N at {:.1} mm (paper's update: {:.3e} N); largest pull {:.3e} N; {} Newton iterations, {:.1} s",
+            "settled width ratio {:.3}; pull at the end {:.3e} N at {:.1} mm (paper's update: {:.3e} N); largest pull {:.3e} N; {} Newton iterations, {:.1} s; {} pull steps with an unresolved return mapping",
             coulomb.settled_width_ratio,
             coulomb_last.force,
             mm(coulomb_last),
             last.force,
             coulomb.samples.iter().map(|s| s.force).fold(f64::MIN, f64::max),
             coulomb.newton_iterations,
-            coulomb.seconds
+            coulomb.seconds,
+            coulomb.friction_unresolved
         ),
     ));
     if let Some(stiff) = stiffness_ratio(&result) {

@@ -44,9 +44,9 @@ pub fn spec() -> FigureSpec {
 /// (family, parameter) of a run.
 #[derive(Clone, Copy)]
 enum Family {
-    /// Time step, friction return mapping (the default).
+    /// Time step, friction return mapping.
     Dt(f64),
-    /// Time step, the paper's explicit anchor update.
+    /// Time step, the paper's explicit anchor update (the simulator's default).
     DtExplicit(f64),
     /// Newton force tolerance at dt = 1 ms, return mapping.
     Tolerance(f64),
@@ -221,10 +221,11 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 summary.push((
                     key,
                     format!(
-                        "{:.2} s, error {}, {} Newton iterations",
+                        "{:.2} s, error {}, {} Newton iterations, {} steps with an unresolved return mapping",
                         run.seconds,
                         crate::percent(e),
-                        run.newton_iterations
+                        run.newton_iterations,
+                        run.friction_unresolved
                     ),
                 ));
             }

@@ -232,6 +232,9 @@ pub struct RibStretchRun {
     pub newton_iterations: usize,
     /// Wall time of settle + pull (s).
     pub seconds: f64,
+    /// Steps of the pull whose friction return mapping still changed modes after its last
+    /// re-solve (kept with the explicit update; 0 without the return mapping).
+    pub friction_unresolved: usize,
 }
 
 /// A rib of a [`RibStretch`] settled free (before its clamps close).
@@ -287,6 +290,10 @@ impl RibStretch {
     ) -> anyhow::Result<RibStretchRun> {
         let start = Instant::now();
         let s = settings;
+        anyhow::ensure!(
+            s.forces == self.settings.forces && s.params == self.settings.params,
+            "a pull needs the yarn and force terms of the settle"
+        );
         let mut sim = settled.sim.clone();
         sim.set_settings(s.step_settings())?;
         let SideClamps {
@@ -308,12 +315,14 @@ impl RibStretch {
         let mut samples = vec![sample(&sim, 0.0, 0)];
         let mut slipped = 0;
         let mut newton_iterations = 0;
+        let mut friction_unresolved = 0;
         for k in 1..=steps {
             sim.displace_pinned_nodes(&right, axis * per_step)?;
             let report = sim
                 .step()
                 .with_context(|| format!("pull step {k} of {steps} (dt = {} s)", s.dt))?;
             newton_iterations += report.newton_iterations;
+            friction_unresolved += report.friction_unresolved;
             slipped += report.slipped;
             if k % sample_stride == 0 {
                 samples.push(sample(&sim, k as f64 * per_step, slipped));
@@ -327,6 +336,7 @@ impl RibStretch {
             steps,
             newton_iterations,
             seconds: start.elapsed().as_secs_f64(),
+            friction_unresolved,
         })
     }
 }
