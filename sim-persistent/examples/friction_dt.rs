@@ -103,7 +103,7 @@ fn main() {
         "dt (ms) | update | pull at the end (N) | slips | Newton iterations | unresolved steps | wall (s)"
     );
     for &dt in &dts {
-        for return_mapping in [0, 20] {
+        for return_mapping in [0, StepSettings::RETURN_MAPPING_RESOLVES] {
             let mut sim = settled.clone();
             let s = StepSettings {
                 dt,

@@ -25,6 +25,7 @@ use anyhow::Context;
 use crate::plot::{LineChart, Series, save_side_by_side};
 use crate::studies::persistent::{RibStretch, RibStretchRun, SwatchSettings, kind_name};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
+use sim_persistent::integrator::StepSettings;
 
 /// Registry entry.
 pub fn spec() -> FigureSpec {
@@ -78,9 +79,12 @@ pub fn kinds(run: &RibStretchRun) -> Vec<sim_persistent::forces::TermKind> {
 /// (`return_mapping`) or the paper's update.
 pub fn coulomb_experiment(quick: bool, return_mapping: bool) -> RibStretch {
     let mut e = experiment(quick);
-    e.settings.friction_return_mapping = if return_mapping { 20 } else { 0 };
+    e.settings.friction_return_mapping = if return_mapping {
+        StepSettings::RETURN_MAPPING_RESOLVES
+    } else {
+        0
+    };
     e.settings.forces.loop_contact = true;
-    e.settings.forces.segment_floor = true;
     e
 }
 

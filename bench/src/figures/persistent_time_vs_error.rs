@@ -28,6 +28,7 @@ use anyhow::Context;
 use crate::plot::{LineChart, Series};
 use crate::studies::persistent::{RibStretch, RibStretchRun, SwatchSettings};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
+use sim_persistent::integrator::StepSettings;
 
 /// Registry entry.
 pub fn spec() -> FigureSpec {
@@ -93,9 +94,6 @@ impl Family {
     }
 }
 
-/// Re-solves per step allowed to the friction return mapping.
-const RESOLVES: usize = 20;
-
 fn settings(dt: f64, tol: f64, return_mapping: bool) -> SwatchSettings {
     let mut s = SwatchSettings {
         dt,
@@ -103,11 +101,15 @@ fn settings(dt: f64, tol: f64, return_mapping: bool) -> SwatchSettings {
         ..SwatchSettings::default()
     };
     // Coulomb-consistent friction lets yarns slide freely through uncompressed contacts:
-    // the floor on segment material and contact between adjacent loops keep draining
-    // segments and narrowing loops from collapsing (sim_persistent::forces::segment_floor).
+    // contact between adjacent loops keeps narrowing loops from passing through each other
+    // (the segment floor, on by default, keeps draining segments from collapsing; see
+    // sim_persistent::forces::friction).
     s.forces.loop_contact = true;
-    s.forces.segment_floor = true;
-    s.friction_return_mapping = if return_mapping { RESOLVES } else { 0 };
+    s.friction_return_mapping = if return_mapping {
+        StepSettings::RETURN_MAPPING_RESOLVES
+    } else {
+        0
+    };
     s
 }
 
