@@ -12,7 +12,7 @@ use std::sync::Mutex;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::table::Table;
+use yarn_output::table::Table;
 
 /// Static description of one figure and the function that produces it.
 #[derive(Debug, Clone)]

@@ -5,7 +5,7 @@
 //! - [`figure`]: the registry ([`FigureSpec`], [`all_figures`]) and what a
 //!   figure function gets ([`FigureContext`]) and returns ([`FigureOutput`]).
 //! - [`plot`]: line charts written as PNG + SVG.
-//! - [`table`]: the numeric [`Table`] with CSV read/write.
+//! - [`Table`] (from `yarn-output`): the numeric table with CSV read/write.
 //! - [`report`]: the runner behind `cargo xtask reproduce-figures`.
 //! - [`reference`](mod@reference): comparison against guarded reference curves.
 //! - [`studies`]: the computations behind the figures (callable from tests).
@@ -63,9 +63,8 @@ pub mod plot;
 pub mod reference;
 pub mod report;
 pub mod studies;
-pub mod table;
 
 pub use figure::{FigureContext, FigureOutput, FigureSpec, all_figures, percent};
 pub use reference::{Tolerance, Tolerances, compare_tables, compare_with_file};
 pub use report::{FigureRun, RunOptions, run_figures};
-pub use table::Table;
+pub use yarn_output::table::Table;

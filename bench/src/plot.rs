@@ -286,12 +286,12 @@ fn save_panels(
 /// Height of the caption band above each image of [`save_images`] (pixels).
 const CAPTION_HEIGHT: u32 = 36;
 
-/// Writes rendered images (e.g. `deform_runtime::render` tube images) side by side, each with
+/// Writes rendered images (e.g. `yarn_output::render` tube images) side by side, each with
 /// a caption above it, as `<dir>/<stem>.png` (raster only: no SVG). The file is written by the
 /// plotters bitmap backend, so it is deflate-compressed, unlike the renderer's own stored-block
 /// PNG encoder.
 pub fn save_images(
-    panels: &[(&str, &deform_runtime::render::Image)],
+    panels: &[(&str, &yarn_output::render::Image)],
     dir: &Path,
     stem: &str,
 ) -> anyhow::Result<()> {
@@ -620,7 +620,7 @@ mod tests {
 
     #[test]
     fn images_are_saved_side_by_side_with_captions() {
-        use deform_runtime::render::Image;
+        use yarn_output::render::Image;
         let dir = std::env::temp_dir().join(format!("bench-save-images-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let image = |width: u32, height: u32, v: u8| Image {

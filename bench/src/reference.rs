@@ -11,7 +11,7 @@ use std::path::Path;
 
 use anyhow::bail;
 
-use crate::table::Table;
+use yarn_output::table::Table;
 
 /// Relative and absolute tolerance for one column.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -434,7 +434,7 @@ mod tests {
     use super::*;
     use crate::plot::{LineChart, Series};
     use crate::reference::{Tolerances, compare_with_file};
-    use crate::table::Table;
+    use yarn_output::table::Table;
 
     /// A synthetic figure: y = x² sampled, with a dashed reference line.
     fn squares(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {

@@ -13,7 +13,7 @@ use deform_runtime::pipeline::{SetupOptions, build};
 use deform_runtime::{DeformOptions, synthetic};
 
 fn bench(c: &mut Criterion) {
-    let tile = sim_periodic::pyp::read_pyp(concat!(
+    let tile = yarn_pattern::pyp::read_pyp(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../tests/data/patterns/stockinette.pyp"
     ))

@@ -5,7 +5,7 @@ use deform_runtime::{RuntimeDatabase, synthetic};
 use std::time::Instant;
 
 fn main() {
-    let tile = sim_periodic::pyp::read_pyp(concat!(
+    let tile = yarn_pattern::pyp::read_pyp(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../tests/data/patterns/stockinette.pyp"
     ))

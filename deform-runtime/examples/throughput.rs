@@ -25,7 +25,7 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let cells: f64 = args.next().and_then(|s| s.parse().ok()).unwrap_or(320.0);
     let frames: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(5);
-    let tile = sim_periodic::pyp::read_pyp(concat!(
+    let tile = yarn_pattern::pyp::read_pyp(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../tests/data/patterns/stockinette.pyp"
     ))

@@ -26,12 +26,12 @@
 //!
 //! [`crate::Deformer::frame_explicit`] runs a frame with this model on the CPU.
 
-use sim_periodic::madypg::Database;
-use sim_periodic::tile::Tile;
+use yarn_pattern::madypg::Database;
+use yarn_pattern::tile::Tile;
 
 use crate::database::{RuntimeDatabase, locate};
-use crate::deform::{KernelInputs, VertexCounters, clamp_eigenvalues, strains};
 use crate::error::{DeformError, Result};
+use crate::kernel::{KernelInputs, VertexCounters, clamp_eigenvalues, strains};
 use crate::real::Real;
 
 /// The two 4-D databases `ΔQ_X1(s, κ)` and `ΔQ_X2(s, κ)` of the explicit bending model, each
@@ -168,7 +168,7 @@ impl<T: Real> BendingDatabase<T> {
 /// The curvature tensor `K = F⁻¹ II F⁻¹` (1/m) in the deformed orthonormal coordinates
 /// `(a, b) = F X` of the first fundamental form `i = [I₁₁, I₁₂, I₂₂]` (symmetric positive
 /// definite, e.g. clamped) and the second fundamental form `ii` (1/m), with `F = √I` the
-/// symmetric square root (as `sim_periodic::coarse::Coarse::from_strain`).
+/// symmetric square root (as `yarn_pattern::strain::Coarse::from_strain`).
 #[inline(always)]
 pub fn curvature_tensor<T: Real>(i: [T; 3], ii: [T; 3]) -> [T; 3] {
     let [a, b, c] = i;

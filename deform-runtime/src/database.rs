@@ -1,7 +1,7 @@
 //! The displacement database ΔQ(sx, sa, sy) prepared for per-frame lookups (paper 004 §3.3,
 //! §4.4).
 //!
-//! [`RuntimeDatabase`] is built from a [`sim_periodic::madypg::Database`] after checking it
+//! [`RuntimeDatabase`] is built from a [`yarn_pattern::madypg::Database`] after checking it
 //! against the pattern (same vertex count, finite values). Storage is converted to the
 //! run-time scalar `T` and kept *texel-interleaved* like an RGBA 3-D texture: for each pattern
 //! vertex one contiguous block of `|SX|·|SA|·|SY|` texels `(Δx, Δy, Δz, Δθ)` in the MADYPG order
@@ -14,8 +14,8 @@
 //! strains outside the sampled range to the nearest sample (paper 004 §4.4: "constant
 //! extrapolation"), so they never extrapolate.
 
-use sim_periodic::madypg::Database;
-use sim_periodic::tile::Tile;
+use yarn_pattern::madypg::Database;
+use yarn_pattern::tile::Tile;
 
 use crate::error::{DeformError, Result};
 use crate::real::Real;

@@ -16,7 +16,7 @@
 
 use std::collections::HashMap;
 
-use sim_periodic::tile::Tile;
+use yarn_pattern::tile::Tile;
 
 use crate::error::{DeformError, Result};
 use crate::mesh::RestMesh;

@@ -7,13 +7,13 @@ use std::path::PathBuf;
 pub enum DeformError {
     /// The displacement database could not be read or is malformed.
     #[error(transparent)]
-    Database(#[from] sim_periodic::madypg::DatabaseError),
+    Database(#[from] yarn_pattern::madypg::DatabaseError),
     /// The pattern (`.pyp`) could not be read or is malformed.
     #[error(transparent)]
-    Pattern(#[from] sim_periodic::pyp::PypError),
+    Pattern(#[from] yarn_pattern::pyp::PypError),
     /// The pattern tile is inconsistent.
     #[error("invalid pattern tile: {0}")]
-    Tile(#[from] sim_periodic::tile::TileError),
+    Tile(#[from] yarn_pattern::tile::TileError),
     /// Database and pattern do not belong together.
     #[error(
         "database/pattern mismatch: the database has {database} vertices per sample, the pattern has {pattern} vertices"
@@ -36,6 +36,13 @@ pub enum DeformError {
         /// The row.
         values: [f32; 4],
     },
+    /// The GPU back end is unavailable or failed.
+    #[cfg(feature = "gpu")]
+    #[error(transparent)]
+    Gpu(#[from] Box<crate::gpu::GpuError>),
+    /// Output (geometry, image) could not be written.
+    #[error(transparent)]
+    Output(#[from] yarn_output::OutputError),
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
     Io {

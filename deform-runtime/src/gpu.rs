@@ -582,35 +582,6 @@ impl GpuDeformer {
 /// Size of the `Params` uniform: 4 vec4 + 24 vec4 of axes.
 const PARAMS_BYTES: usize = (4 + 24) * 16;
 
-/// Which back end runs the vertex stage.
-#[derive(Debug)]
-pub enum Backend {
-    /// rayon on the CPU.
-    Cpu,
-    /// wgpu compute shader.
-    Gpu(Box<GpuDeformer>),
-}
-
-impl Backend {
-    /// The GPU when an adapter exists (printing which), else the CPU with a message saying
-    /// why.
-    pub fn auto(cpu: &Deformer<f32>) -> (Self, String) {
-        match GpuDeformer::new(cpu) {
-            Ok(gpu) => {
-                let message = format!("GPU back end on {}", gpu.adapter());
-                (Backend::Gpu(Box::new(gpu)), message)
-            }
-            Err(e) => (
-                Backend::Cpu,
-                format!(
-                    "CPU back end ({} rayon threads): {e}",
-                    rayon::current_num_threads()
-                ),
-            ),
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

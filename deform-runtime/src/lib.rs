@@ -62,18 +62,19 @@
 //! rayon thread count (each vertex is computed independently); no output vertex is ever NaN
 //! (non-finite results keep the previous value and are counted).
 
+pub mod backend;
 pub mod bending;
 pub mod database;
 pub mod deform;
 pub mod embed;
 pub mod error;
+#[cfg(feature = "gpu")]
 pub mod gpu;
+pub mod kernel;
 pub mod mesh;
 pub mod obj;
-pub mod output;
 pub mod pipeline;
 pub mod real;
-pub mod render;
 pub mod synthetic;
 
 pub use database::RuntimeDatabase;

@@ -14,12 +14,12 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
-use deform_runtime::gpu::{Backend, GpuDeformer};
+use deform_runtime::backend::Backend;
 use deform_runtime::obj::{expand_sequence, read_obj, read_obj_positions};
-use deform_runtime::output::Polylines;
 use deform_runtime::pipeline::{SetupOptions, build, load_pattern_and_database};
-use deform_runtime::render::{Camera, RenderOptions, render_tubes};
 use deform_runtime::{DeformOptions, EmbedOptions};
+use yarn_output::render::{Camera, RenderOptions, render_tubes};
+use yarn_output::{Polylines, UpAxis, bcc, obj, ply, usda};
 
 #[derive(Parser)]
 #[command(
@@ -37,6 +37,7 @@ enum Format {
     Obj,
     Ply,
     Bcc,
+    Usda,
 }
 
 #[derive(Subcommand)]
@@ -140,6 +141,35 @@ enum BackendChoice {
     Gpu,
 }
 
+/// What the deformer writes into its files' comments and headers.
+const COMMENT: &str = "deform-runtime yarn polylines (m)";
+
+/// Writes one frame's yarns in `format` (the yarn-output writers; z up, as the meshes).
+fn write_yarns(
+    file: &std::path::Path,
+    format: Format,
+    lines: &Polylines<'_, f32>,
+    radius: f64,
+) -> anyhow::Result<()> {
+    let bcc_header = bcc::BccHeader {
+        curve: bcc::CurveType::Polyline,
+        up: UpAxis::Z,
+        info: COMMENT,
+    };
+    let usd = usda::UsdOptions {
+        radius,
+        up: UpAxis::Z,
+        comment: COMMENT,
+    };
+    match format {
+        Format::Obj => yarn_output::write_with(file, |w| obj::write(w, lines, COMMENT))?,
+        Format::Ply => yarn_output::write_with(file, |w| ply::write(w, lines, COMMENT))?,
+        Format::Bcc => yarn_output::write_file(file, &bcc::to_bytes(lines, &bcc_header)?)?,
+        Format::Usda => yarn_output::write_file(file, usda::to_string(lines, &usd)?.as_bytes())?,
+    }
+    Ok(())
+}
+
 fn main() -> anyhow::Result<()> {
     match Cli::parse().command {
         Command::Run(args) => run(args),
@@ -188,11 +218,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     let (mut backend, backend_message) = match args.backend {
         BackendChoice::Cpu => (Backend::Cpu, "CPU back end (requested)".to_string()),
         BackendChoice::Auto => Backend::auto(&deformer),
-        BackendChoice::Gpu => {
-            let gpu = GpuDeformer::new(&deformer)?;
-            let message = format!("GPU back end on {}", gpu.adapter());
-            (Backend::Gpu(Box::new(gpu)), message)
-        }
+        BackendChoice::Gpu => Backend::gpu(&deformer)?,
     };
     eprintln!(
         "deform-runtime: {} yarn vertices in {} curves on {} triangles; {} frame(s); {backend_message}",
@@ -215,16 +241,10 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     let mut per_frame = Vec::new();
     for (k, path) in frames.iter().enumerate() {
         read_obj_positions(path, deformer.mesh().n_positions, &mut positions)?;
-        let stats = match &mut backend {
-            Backend::Cpu => deformer.frame(&positions)?,
-            Backend::Gpu(gpu) => gpu.frame(&mut deformer, &positions)?,
-        };
+        let stats = backend.frame(&mut deformer, &positions)?;
         let t_write = Instant::now();
         let e = deformer.embedding();
-        let o = match &backend {
-            Backend::Cpu => deformer.output(),
-            Backend::Gpu(gpu) => gpu.output(),
-        };
+        let o = backend.output(&deformer);
         let lines = Polylines {
             x: &o.x,
             y: &o.y,
@@ -238,13 +258,10 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
                 Format::Obj => "obj",
                 Format::Ply => "ply",
                 Format::Bcc => "bcc",
+                Format::Usda => "usda",
             };
             let file = args.out.join(format!("yarns_{:06}.{ext}", k + 1));
-            match format {
-                Format::Obj => lines.write_obj(&file)?,
-                Format::Ply => lines.write_ply(&file)?,
-                Format::Bcc => lines.write_bcc(&file)?,
-            }
+            write_yarns(&file, *format, &lines, tile.radius)?;
             written.push(file);
         }
         let mut rendered = serde_json::Value::Null;

@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
-use sim_periodic::madypg::Database;
-use sim_periodic::pyp::read_pyp;
-use sim_periodic::tile::Tile;
+use yarn_pattern::madypg::Database;
+use yarn_pattern::pyp::read_pyp;
+use yarn_pattern::tile::Tile;
 
 use crate::database::RuntimeDatabase;
 use crate::deform::{DeformOptions, Deformer};

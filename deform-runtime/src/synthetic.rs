@@ -5,8 +5,8 @@
 //! of (sx, sa, sy) lets tests check the lookup exactly (trilinear interpolation reproduces
 //! multilinear functions) and the mapping independently of the physics.
 
-use sim_periodic::madypg::Database;
-use sim_periodic::tile::Tile;
+use yarn_pattern::madypg::Database;
+use yarn_pattern::tile::Tile;
 
 use crate::obj::ObjMesh;
 
@@ -72,12 +72,12 @@ pub fn strain_map(s: [f64; 3]) -> impl Fn([f64; 2]) -> [f64; 3] {
 
 /// `√I` (row-major 2 × 2) of the strain `(sx, sa, sy)`.
 pub fn sqrt_i(s: [f64; 3]) -> [f64; 4] {
-    let strain = sim_periodic::coarse::Strain {
+    let strain = yarn_pattern::strain::Strain {
         sx: s[0],
         sa: s[1],
         sy: s[2],
     };
-    let r = sim_periodic::coarse::sqrt_spd2(&strain.first_fundamental_form());
+    let r = yarn_pattern::strain::sqrt_spd2(&strain.first_fundamental_form());
     [r[(0, 0)], r[(0, 1)], r[(1, 0)], r[(1, 1)]]
 }
 

@@ -7,8 +7,8 @@ mod common;
 use common::*;
 use deform_runtime::bending::{BendingDatabase, curvature_tensor};
 use deform_runtime::{DeformError, DeformOptions, Deformer, synthetic};
-use sim_periodic::madypg::Database;
-use sim_periodic::tile::Tile;
+use yarn_pattern::madypg::Database;
+use yarn_pattern::tile::Tile;
 
 const KAPPA: f64 = 40.0;
 

@@ -6,7 +6,7 @@ mod common;
 
 use common::*;
 use deform_runtime::{DeformOptions, Deformer, Real, synthetic};
-use sim_periodic::tile::Tile;
+use yarn_pattern::tile::Tile;
 
 /// Largest distance (m) between the output and `F₂ (X + ΔQ(s))` over all yarn vertices, and
 /// largest twist error (rad).

@@ -5,8 +5,9 @@ mod common;
 
 use common::*;
 use deform_runtime::deform::{clamp_eigenvalues, strains};
-use deform_runtime::output::Polylines;
 use deform_runtime::{DeformOptions, EmbedOptions, RestMesh, embed, synthetic};
+use yarn_output::Polylines;
+use yarn_output::render::{Camera, Image, RenderOptions, render_tubes};
 
 #[test]
 fn static_frames_reuse_the_previous_output() {
@@ -315,9 +316,22 @@ fn output_files_describe_the_same_curves() {
     };
     let dir = std::env::temp_dir().join(format!("deform-runtime-out-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    lines.write_obj(&dir.join("y.obj")).unwrap();
-    lines.write_ply(&dir.join("y.ply")).unwrap();
-    lines.write_bcc(&dir.join("y.bcc")).unwrap();
+    let comment = "deform-runtime test";
+    yarn_output::write_with(&dir.join("y.obj"), |w| {
+        yarn_output::obj::write(w, &lines, comment)
+    })
+    .unwrap();
+    yarn_output::write_with(&dir.join("y.ply"), |w| {
+        yarn_output::ply::write(w, &lines, comment)
+    })
+    .unwrap();
+    let header = yarn_output::bcc::BccHeader {
+        curve: yarn_output::bcc::CurveType::Polyline,
+        up: yarn_output::UpAxis::Z,
+        info: comment,
+    };
+    let bytes = yarn_output::bcc::to_bytes(&lines, &header).unwrap();
+    yarn_output::write_file(&dir.join("y.bcc"), &bytes).unwrap();
     let obj = std::fs::read_to_string(dir.join("y.obj")).unwrap();
     assert_eq!(obj.lines().filter(|l| l.starts_with("v ")).count(), e.len());
     assert_eq!(
@@ -335,4 +349,69 @@ fn output_files_describe_the_same_curves() {
     let first_x = f32::from_le_bytes(bcc[68..72].try_into().unwrap());
     assert_eq!(first_x, o.x[0]);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+fn is_background(image: &Image, x: u32, y: u32) -> bool {
+    image.pixel(x, y) == [255, 255, 255]
+}
+
+#[test]
+fn deformed_pattern_renders_every_edge() {
+    let tile = stockinette();
+    let db = database(&tile);
+    let mesh = grid(&tile, 3.0, 4.0, 4);
+    let mut d = deformer::<f32>(&tile, &db, &mesh, DeformOptions::default());
+    d.frame(&synthetic::map_uvs(&mesh, |uv| synthetic::wave(uv, 2.0)))
+        .unwrap();
+    let (e, o) = (d.embedding(), d.output());
+    let lines = Polylines {
+        x: &o.x,
+        y: &o.y,
+        z: &o.z,
+        curve_offsets: &e.curve_offsets,
+        closed: &e.closed,
+    };
+    let options = RenderOptions {
+        camera: Camera {
+            direction: [0.3, 0.5, -1.0],
+            up: [0.0, 1.0, 0.0],
+        },
+        supersample: 2,
+        ..RenderOptions::new(320, 240, tile.radius)
+    };
+    let r = render_tubes(&lines, &options).unwrap();
+    let edges: usize = (0..e.n_curves())
+        .map(|c| {
+            let n = (e.curve_offsets[c + 1] - e.curve_offsets[c]) as usize;
+            n.saturating_sub(1) + usize::from(e.closed[c] && n > 2) + usize::from(n == 1)
+        })
+        .sum();
+    assert_eq!(r.segments, edges);
+    assert_eq!(r.skipped_vertices, 0);
+    if let Ok(dir) = std::env::var("RENDER_TEST_DUMP") {
+        r.image
+            .write_png(&std::path::Path::new(&dir).join("deformed.png"))
+            .unwrap();
+    }
+    // Auto framing: the silhouette's bounding box fills the image minus the 4 % margins along
+    // the limiting direction (a capsule's screen extent is its vertices' extent ± R).
+    let (mut lo, mut hi) = ([u32::MAX; 2], [0u32; 2]);
+    for y in 0..240 {
+        for x in 0..320 {
+            if !is_background(&r.image, x, y) {
+                lo = [lo[0].min(x), lo[1].min(y)];
+                hi = [hi[0].max(x), hi[1].max(y)];
+            }
+        }
+    }
+    let span = [hi[0] - lo[0] + 1, hi[1] - lo[1] + 1];
+    let free = [0.92 * 320.0, 0.92 * 240.0];
+    eprintln!("{edges} segments; silhouette {span:?} px, free area {free:?} px");
+    assert!(
+        (0..2).any(|d| (f64::from(span[d]) - free[d]).abs() <= 2.0),
+        "{span:?} vs {free:?}"
+    );
+    assert!((0..2).all(|d| f64::from(span[d]) <= free[d] + 2.0));
+    let png = r.image.to_png().unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
 }

@@ -112,7 +112,7 @@ fn malformed_database_files_name_the_file() {
     let dir = std::env::temp_dir().join(format!("deform-runtime-baddb-{}", std::process::id()));
     database(&tile).write(&dir).unwrap();
     // Round trip works.
-    let db = sim_periodic::madypg::Database::read(&dir).unwrap();
+    let db = yarn_pattern::madypg::Database::read(&dir).unwrap();
     RuntimeDatabase::<f32>::new(&db, &tile).unwrap();
     // Decreasing axis.
     std::fs::write(dir.join("axes.txt"), "0 1\n0.5 0.2\n0\n").unwrap();
@@ -130,7 +130,7 @@ fn malformed_database_files_name_the_file() {
     database(&tile).write(&dir).unwrap();
     let bytes = std::fs::read(dir.join("data.npy")).unwrap();
     std::fs::write(dir.join("data.npy"), &bytes[..bytes.len() - 16]).unwrap();
-    let err = sim_periodic::madypg::Database::read(&dir)
+    let err = yarn_pattern::madypg::Database::read(&dir)
         .unwrap_err()
         .to_string();
     assert!(err.contains("data.npy"), "{err}");

@@ -13,9 +13,7 @@
 //!
 //! | module | contents |
 //! |---|---|
-//! | [`tile`] | the periodic tile model (vertices, periodic edges, rest shape, reference frames) |
-//! | [`pyp`] | `.pyp` read/write with located errors |
-//! | [`madypg`] | displacement database layout (`axes.txt` + `data.npy`) |
+//! | [`tile`], [`pyp`], [`madypg`] | the tile, `.pyp` and database layout, from the leaf crate `yarn-pattern` |
 //! | [`coarse`] | coarse deformation: in-plane from seed 004 strains or uniaxial (s, c), optional single curvature |
 //! | [`config`] | TOML configuration of the `sim-periodic` command line |
 //! | [`curves`] | uniaxial curves {s, c, σ_s} along weft / bias / warp with a root-find for zero orthogonal stress; bending curves {κ, Ψ, dΨ/dκ} |
@@ -30,8 +28,9 @@ pub mod coarse;
 pub mod config;
 pub mod curves;
 pub mod database;
-pub mod madypg;
 pub mod patterns;
 pub mod periodic;
-pub mod pyp;
-pub mod tile;
+
+/// The pattern data live in the leaf crate `yarn-pattern` (shared with `deform-runtime`);
+/// they are re-exported here under their historical paths.
+pub use yarn_pattern::{madypg, pyp, tile};

@@ -61,56 +61,40 @@
 //! values as `NaN`/`inf`, the PNG renderer skips them. Invalid options (radius ≤ 0, zero
 //! samples, a position list that does not match the topology) are [`OutputError::Invalid`].
 //!
-//! # File formats (exactly as written; one file per frame `frame_NNNNN.<ext>`)
+//! # File formats (one file per frame `frame_NNNNN.<ext>`)
 //!
-//! - **OBJ** ([`RenderCurves::obj_text`], `.obj`): a `#` comment line, then one
-//!   `v x y z` line per spline sample (metres, `{:.9e}`), yarn after yarn, then one
-//!   `l i₀ i₁ …` element per yarn with ≥ 2 samples (1-based indices into the `v` list).
-//! - **PLY** ([`RenderCurves::ply_text`], `.ply`), ASCII 1.0:
-//!   ```text
-//!   ply
-//!   format ascii 1.0
-//!   comment sim-persistent yarn rendering curves (m), seed 000 §3.2
-//!   element vertex <samples>
-//!   property float x
-//!   property float y
-//!   property float z
-//!   property int yarn
-//!   element edge <samples − curves with ≥ 1 sample>
-//!   property int vertex1
-//!   property int vertex2
-//!   property int yarn
-//!   end_header
-//!   ```
-//!   then one line `x y z yarn` per sample (f32 values) and one line `v1 v2 yarn` per spline
-//!   segment (0-based vertex indices).
-//! - **`.bcc`** ([`RenderCurves::bcc_bytes`]), little-endian: a 64-byte header — bytes 0–2
-//!   `"BCC"`, byte 3 `0x44` (4-byte floats and integers), bytes 4–5 the curve type, byte 6
-//!   `3` (dimensions), byte 7 `1` (up axis Y: the layout's rows grow along +y and gravity is
-//!   −y), bytes 8–15 `u64` curve count (one per yarn), bytes 16–23 `u64` total point count,
-//!   bytes 24–63 the info text `"sim-persistent yarns (m), seed 000"` padded with zeros —
-//!   then per yarn an `i32` point count `n > 0` (all yarns are open curves) and `n × 3 f32`
-//!   (x, y, z in metres). Curve type [`BccCurve::C0`] (default) writes the offset control
-//!   points `pᵢ` (the format's uniform Catmull-Rom: a reader's uniform spline passes through
-//!   the same points as our centripetal one but differs slightly between them; the curve
-//!   starts at the first and ends at the last point), [`BccCurve::Pl`] writes the spline
-//!   samples as a polyline (`"PL"`: exactly the OBJ/PLY geometry).
+//! The curves are written by the workbench's one set of writers, `yarn-output`, whose module
+//! documentation gives each format exactly:
+//!
+//! - **OBJ** ([`RenderCurves::obj_text`], `.obj`, [`yarn_output::obj`]): `v` per spline sample
+//!   (metres), yarn after yarn, one `l` per yarn with ≥ 2 samples; comment [`COMMENT`].
+//! - **PLY** ([`RenderCurves::ply_text`], `.ply`, [`yarn_output::ply`]): ASCII, vertices and
+//!   edges with a `yarn` property.
+//! - **`.bcc`** ([`RenderCurves::bcc_bytes`], [`yarn_output::bcc`]): up axis Y (the layout's rows
+//!   grow along +y and gravity is −y), info [`BCC_INFO`], all yarns open. Curve type
+//!   [`BccCurve::C0`] (default) writes the offset control points `pᵢ` (the format's uniform
+//!   Catmull-Rom: a reader's uniform spline passes through the same points as our
+//!   centripetal one but differs slightly between them), [`BccCurve::Pl`] writes the spline
+//!   samples as a polyline (exactly the OBJ/PLY geometry).
+//! - **USD** ([`RenderCurves::usda_text`], `.usda`, [`yarn_output::usda`]): one linear
+//!   `BasisCurves` prim of the samples, width `2R`, up axis Y.
 //! - **PNG** ([`RenderCurves::render`], `.png`): the samples drawn as shaded tubes of radius
-//!   `R` by [`deform_runtime::render`] (orthographic, depth-buffered, one palette colour per
-//!   yarn) and encoded as 8-bit RGB by its PNG encoder.
+//!   `R` by [`yarn_output::render`] (orthographic, depth-buffered, one palette colour per
+//!   yarn), 8-bit RGB.
 //! - **Nodes OBJ** ([`nodes_obj_text`], `.nodes.obj`): the simulated geometry itself — one `v`
 //!   per contact node and one `l` per yarn through its passes (the straight segments).
 
 use crate::integrator::Simulator;
 use crate::topology::Topology;
-use deform_runtime::output::Polylines;
-use deform_runtime::render::{Camera, Framing, RenderOptions, Rendering, render_tubes};
 use nalgebra::{Matrix3, SymmetricEigen};
 use rod::geometry::V3;
 use serde::{Deserialize, Deserializer};
 use std::collections::VecDeque;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use yarn_output::bcc::{BccHeader, CurveType};
+use yarn_output::render::{Camera, Framing, RenderOptions, Rendering, render_tubes};
+use yarn_output::usda::UsdOptions;
+use yarn_output::{PolylineBuf, UpAxis};
 
 /// Output that cannot be produced.
 #[derive(Debug, thiserror::Error)]
@@ -126,6 +110,9 @@ pub enum OutputError {
     /// Invalid options or positions that do not match the topology.
     #[error("invalid output request: {0}")]
     Invalid(String),
+    /// A yarn-output writer rejected the request.
+    #[error(transparent)]
+    Output(#[from] yarn_output::OutputError),
     /// The tube renderer rejected the request.
     #[error("rendering {path}: {message}")]
     Render {
@@ -558,120 +545,80 @@ impl RenderCurves {
         self.samples.iter().map(|s| s.len().saturating_sub(1)).sum()
     }
 
-    /// OBJ text: `v` per sample, `l` per yarn (module documentation).
-    pub fn obj_text(&self) -> String {
-        let mut out = String::from(
-            "# sim-persistent yarn rendering curves (m), seed 000 §3.2: one `l` per yarn\n",
-        );
-        for p in self.samples.iter().flatten() {
-            let _ = writeln!(out, "v {:.9e} {:.9e} {:.9e}", p.x, p.y, p.z);
-        }
-        let mut base = 1;
-        for s in &self.samples {
-            if s.len() >= 2 {
-                out.push('l');
-                for k in 0..s.len() {
-                    let _ = write!(out, " {}", base + k);
-                }
-                out.push('\n');
-            }
-            base += s.len();
-        }
-        out
-    }
-
-    /// ASCII PLY text with a `yarn` property on vertices and edges (module documentation).
-    pub fn ply_text(&self) -> String {
-        let mut out = String::new();
-        let _ = write!(
-            out,
-            "ply\nformat ascii 1.0\ncomment sim-persistent yarn rendering curves (m), seed 000 §3.2\n\
-             element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-             property int yarn\nelement edge {}\nproperty int vertex1\nproperty int vertex2\n\
-             property int yarn\nend_header\n",
-            self.sample_count(),
-            self.edge_count()
-        );
-        for (y, s) in self.samples.iter().enumerate() {
-            for p in s {
-                let _ = writeln!(out, "{} {} {} {y}", p.x as f32, p.y as f32, p.z as f32);
-            }
-        }
-        let mut base = 0;
-        for (y, s) in self.samples.iter().enumerate() {
-            for k in 1..s.len() {
-                let _ = writeln!(out, "{} {} {y}", base + k - 1, base + k);
-            }
-            base += s.len();
-        }
-        out
-    }
-
-    /// `.bcc` bytes of the control points (`C0`) or the samples (`PL`) (module documentation).
-    pub fn bcc_bytes(&self, curve: BccCurve) -> Vec<u8> {
-        let (curves, kind): (&[Vec<V3>], &[u8; 2]) = match curve {
-            BccCurve::C0 => (&self.control_points, b"C0"),
-            BccCurve::Pl => (&self.samples, b"PL"),
+    /// The spline samples (`samples = true`) or the offset control points as open polylines.
+    fn polylines(&self, samples: bool) -> Result<PolylineBuf, OutputError> {
+        let curves = if samples {
+            &self.samples
+        } else {
+            &self.control_points
         };
-        let total: usize = curves.iter().map(Vec::len).sum();
-        let mut out = Vec::with_capacity(64 + 4 * curves.len() + 12 * total);
-        let mut header = [0u8; 64];
-        header[0..3].copy_from_slice(b"BCC");
-        header[3] = 0x44;
-        header[4..6].copy_from_slice(kind);
-        header[6] = 3;
-        header[7] = 1;
-        header[8..16].copy_from_slice(&(curves.len() as u64).to_le_bytes());
-        header[16..24].copy_from_slice(&(total as u64).to_le_bytes());
-        let info = BCC_INFO.as_bytes();
-        header[24..24 + info.len()].copy_from_slice(info);
-        out.extend_from_slice(&header);
-        for c in curves {
-            let n = i32::try_from(c.len()).unwrap_or(i32::MAX);
-            out.extend_from_slice(&n.to_le_bytes());
-            for p in c.iter().take(n as usize) {
-                for v in [p.x, p.y, p.z] {
-                    out.extend_from_slice(&(v as f32).to_le_bytes());
-                }
-            }
+        let as_arrays = curves.iter().map(|c| c.iter().map(|p| [p.x, p.y, p.z]));
+        let mut buf = PolylineBuf::default();
+        for c in as_arrays {
+            buf.push_curve(c, false)?;
         }
-        out
+        Ok(buf)
     }
 
-    /// Renders the samples as tubes with [`deform_runtime::render::render_tubes`]; `path`
+    /// OBJ text of the samples ([`yarn_output::obj`]): `v` per sample, `l` per yarn.
+    pub fn obj_text(&self) -> Result<String, OutputError> {
+        Ok(yarn_output::obj::to_string(
+            &self.polylines(true)?.view(),
+            COMMENT,
+        ))
+    }
+
+    /// ASCII PLY text of the samples with a `yarn` property ([`yarn_output::ply`]).
+    pub fn ply_text(&self) -> Result<String, OutputError> {
+        Ok(yarn_output::ply::to_string(
+            &self.polylines(true)?.view(),
+            COMMENT,
+        ))
+    }
+
+    /// `.bcc` bytes ([`yarn_output::bcc`], up axis Y) of the control points (`C0`) or the
+    /// samples (`PL`).
+    pub fn bcc_bytes(&self, curve: BccCurve) -> Result<Vec<u8>, OutputError> {
+        let (samples, curve) = match curve {
+            BccCurve::C0 => (false, CurveType::CatmullRom),
+            BccCurve::Pl => (true, CurveType::Polyline),
+        };
+        let header = BccHeader {
+            curve,
+            up: UpAxis::Y,
+            info: BCC_INFO,
+        };
+        Ok(yarn_output::bcc::to_bytes(
+            &self.polylines(samples)?.view(),
+            &header,
+        )?)
+    }
+
+    /// USD ASCII text of the samples ([`yarn_output::usda`], up axis Y, width `2R`).
+    pub fn usda_text(&self, radius: f64) -> Result<String, OutputError> {
+        let options = UsdOptions {
+            radius,
+            up: UpAxis::Y,
+            comment: COMMENT,
+        };
+        Ok(yarn_output::usda::to_string(
+            &self.polylines(true)?.view(),
+            &options,
+        )?)
+    }
+
+    /// Renders the samples as tubes with [`yarn_output::render::render_tubes`]; `path`
     /// only names the image in errors.
     pub fn render(&self, options: &RenderOptions, path: &Path) -> Result<Rendering, OutputError> {
-        let n = self.sample_count();
-        let (mut x, mut y, mut z) = (
-            Vec::with_capacity(n),
-            Vec::with_capacity(n),
-            Vec::with_capacity(n),
-        );
-        let mut offsets = vec![0u32];
-        for s in &self.samples {
-            for p in s {
-                x.push(p.x);
-                y.push(p.y);
-                z.push(p.z);
-            }
-            offsets.push(u32::try_from(x.len()).map_err(|_| {
-                OutputError::Invalid(format!("{} samples: too many to render", x.len()))
-            })?);
-        }
-        let closed = vec![false; self.samples.len()];
-        let lines = Polylines {
-            x: &x,
-            y: &y,
-            z: &z,
-            curve_offsets: &offsets,
-            closed: &closed,
-        };
-        render_tubes(&lines, options).map_err(|e| OutputError::Render {
+        render_tubes(&self.polylines(true)?.view(), options).map_err(|e| OutputError::Render {
             path: path.to_path_buf(),
             message: e.to_string(),
         })
     }
 }
+
+/// The comment line of our OBJ, PLY and USD files.
+pub const COMMENT: &str = "sim-persistent yarn rendering curves (m), seed 000 §3.2";
 
 /// The 40-byte info field of our `.bcc` headers (zero padded).
 pub const BCC_INFO: &str = "sim-persistent yarns (m), seed 000";
@@ -679,20 +626,19 @@ pub const BCC_INFO: &str = "sim-persistent yarns (m), seed 000";
 /// The simulated geometry as OBJ text: `v` per contact node (m), `l` per yarn through its
 /// passes (the straight segments; the behaviour of the former `scene::obj_text`).
 pub fn nodes_obj_text(sim: &Simulator) -> String {
-    let mut out = String::from("# sim-persistent yarn curves (m): one polyline per yarn\n");
     let q = &sim.state().q;
-    for n in 0..sim.topology().nodes.len() {
+    let points = (0..sim.topology().nodes.len()).map(|n| {
         let x = sim.dofs().position(q, n);
-        let _ = writeln!(out, "v {:.9e} {:.9e} {:.9e}", x.x, x.y, x.z);
-    }
-    for yarn in &sim.topology().yarns {
-        out.push('l');
-        for p in &yarn.passes {
-            let _ = write!(out, " {}", p.node + 1);
-        }
-        out.push('\n');
-    }
-    out
+        [x.x, x.y, x.z]
+    });
+    let paths: Vec<Vec<usize>> = (sim.topology().yarns.iter())
+        .map(|yarn| yarn.passes.iter().map(|p| p.node).collect())
+        .collect();
+    yarn_output::obj::indexed_to_string(
+        points,
+        &paths,
+        "sim-persistent yarn curves (m): one polyline per yarn",
+    )
 }
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
@@ -720,6 +666,8 @@ pub enum Format {
     Ply,
     /// Rendering curves as `.bcc` (`frame_NNNNN.bcc`).
     Bcc,
+    /// Rendering curves as USD ASCII `BasisCurves` (`frame_NNNNN.usda`).
+    Usda,
     /// Tube rendering as PNG (`frame_NNNNN.png`).
     Png,
     /// The simulated node polylines as OBJ (`frame_NNNNN.nodes.obj`).
@@ -733,6 +681,7 @@ impl Format {
             Format::Obj => "obj",
             Format::Ply => "ply",
             Format::Bcc => "bcc",
+            Format::Usda => "usda",
             Format::Png => "png",
             Format::Nodes => "nodes.obj",
         };
@@ -816,7 +765,7 @@ fn de_formats<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Format>, D::Error> 
     let v = Vec::<Format>::deserialize(d)?;
     if v.is_empty() {
         return Err(serde::de::Error::custom(
-            "`formats` needs at least one of \"obj\", \"ply\", \"bcc\", \"png\", \"nodes\"",
+            "`formats` needs at least one of \"obj\", \"ply\", \"bcc\", \"usda\", \"png\", \"nodes\"",
         ));
     }
     for (i, f) in v.iter().enumerate() {
@@ -915,9 +864,12 @@ impl FrameWriter {
             let path = self.dir.join(format.file_name(frame));
             match (format, &curves) {
                 (Format::Nodes, _) => write_file(&path, nodes_obj_text(sim).as_bytes())?,
-                (Format::Obj, Some(c)) => write_file(&path, c.obj_text().as_bytes())?,
-                (Format::Ply, Some(c)) => write_file(&path, c.ply_text().as_bytes())?,
-                (Format::Bcc, Some(c)) => write_file(&path, &c.bcc_bytes(self.spec.bcc))?,
+                (Format::Obj, Some(c)) => write_file(&path, c.obj_text()?.as_bytes())?,
+                (Format::Ply, Some(c)) => write_file(&path, c.ply_text()?.as_bytes())?,
+                (Format::Bcc, Some(c)) => write_file(&path, &c.bcc_bytes(self.spec.bcc)?)?,
+                (Format::Usda, Some(c)) => {
+                    write_file(&path, c.usda_text(self.curve.radius)?.as_bytes())?
+                }
                 (Format::Png, Some(c)) => {
                     let mut options = RenderOptions::new(
                         self.spec.png_size[0],
@@ -931,7 +883,7 @@ impl FrameWriter {
                     if r.segments > 0 {
                         self.framing.get_or_insert(r.framing);
                     }
-                    write_file(&path, &r.image.to_png())?;
+                    write_file(&path, &r.image.to_png()?)?;
                 }
                 (_, None) => {
                     return Err(OutputError::Invalid("rendering curves missing".into()));

@@ -294,7 +294,7 @@ fn stockinette_curves(samples: usize) -> (Topology, RenderCurves) {
 #[test]
 fn obj_has_one_polyline_per_yarn() {
     let (topo, curves) = stockinette_curves(5);
-    let text = curves.obj_text();
+    let text = curves.obj_text().unwrap();
     let v: Vec<V3> = text
         .lines()
         .filter_map(|l| l.strip_prefix("v "))
@@ -323,7 +323,7 @@ fn obj_has_one_polyline_per_yarn() {
 #[test]
 fn ply_reads_back_with_yarn_indices() {
     let (topo, curves) = stockinette_curves(6);
-    let text = curves.ply_text();
+    let text = curves.ply_text().unwrap();
     let (header, body) = text.split_once("end_header\n").unwrap();
     let hl: Vec<&str> = header.lines().collect();
     assert_eq!(&hl[..2], &["ply", "format ascii 1.0"]);
@@ -424,7 +424,7 @@ fn bcc_reads_back_for_both_curve_types() {
         (BccCurve::C0, &curves.control_points, *b"C0"),
         (BccCurve::Pl, &curves.samples, *b"PL"),
     ] {
-        let (t, up, info, read) = read_bcc(&curves.bcc_bytes(kind));
+        let (t, up, info, read) = read_bcc(&curves.bcc_bytes(kind).unwrap());
         assert_eq!(t, tag);
         assert_eq!(up, 1);
         assert_eq!(info, BCC_INFO);
@@ -437,7 +437,7 @@ fn bcc_reads_back_for_both_curve_types() {
         }
     }
     assert_eq!(
-        read_bcc(&curves.bcc_bytes(BccCurve::C0))
+        read_bcc(&curves.bcc_bytes(BccCurve::C0).unwrap())
             .3
             .iter()
             .map(Vec::len)
@@ -446,17 +446,17 @@ fn bcc_reads_back_for_both_curve_types() {
     );
 }
 
-/// The PNG rendering through `deform_runtime::render` draws the yarns: a valid PNG signature
+/// The PNG rendering through `yarn_output::render` draws the yarns: a valid PNG signature
 /// and IHDR size, a good share of non-background pixels, and several yarn colours.
 #[test]
 fn png_rendering_shows_the_yarns() {
     let (_, curves) = stockinette_curves(6);
-    let mut opts = deform_runtime::render::RenderOptions::new(160, 120, R);
+    let mut opts = yarn_output::render::RenderOptions::new(160, 120, R);
     opts.supersample = 1;
     let r = curves.render(&opts, Path::new("test.png")).unwrap();
     assert_eq!(r.skipped_vertices, 0);
     assert_eq!(r.segments, curves.edge_count());
-    let png = r.image.to_png();
+    let png = r.image.to_png().unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
     assert_eq!(&png[12..16], b"IHDR");
     assert_eq!(u32::from_be_bytes(png[16..20].try_into().unwrap()), 160);

@@ -341,15 +341,15 @@ fn woven_scene_steps_and_writes_every_format() {
     .unwrap();
     assert_eq!(
         std::fs::read_to_string(last("obj")).unwrap(),
-        curves.obj_text()
+        curves.obj_text().unwrap()
     );
     assert_eq!(
         std::fs::read_to_string(last("ply")).unwrap(),
-        curves.ply_text()
+        curves.ply_text().unwrap()
     );
     assert_eq!(
         std::fs::read(last("bcc")).unwrap(),
-        curves.bcc_bytes(BccCurve::C0)
+        curves.bcc_bytes(BccCurve::C0).unwrap()
     );
     assert_eq!(
         std::fs::read_to_string(last("nodes.obj")).unwrap(),

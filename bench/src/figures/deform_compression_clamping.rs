@@ -6,12 +6,12 @@
 //! `Δz = R · 2(−sx)₊ · sin(2π v / 7)` per pattern vertex v, plus a small in-plane part. The
 //! figure therefore shows what clamping does to a database that buckles, not the buckling of
 //! real yarns. At the largest compression the sheet without clamping and with λmin = 0.8 is
-//! rendered as shaded yarn tubes (`deform_runtime::render`, grazing view, same scale).
+//! rendered as shaded yarn tubes (`yarn_output::render`, grazing view, same scale).
 
-use deform_runtime::output::Polylines;
 use deform_runtime::pipeline::{SetupOptions, build, read_pattern};
-use deform_runtime::render::{Camera, Framing, RenderOptions, Rendering, render_tubes};
 use deform_runtime::{DeformOptions, Deformer, synthetic};
+use yarn_output::Polylines;
+use yarn_output::render::{Camera, Framing, RenderOptions, Rendering, render_tubes};
 
 use crate::plot::{LineChart, Series, save_images};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
@@ -178,7 +178,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             zip(&col("rms_dz_over_r_lmin_0.9")),
         ))
         .save(&ctx.out_dir, ctx.name)?;
-    let panels: Vec<(&str, &deform_runtime::render::Image)> = images
+    let panels: Vec<(&str, &yarn_output::render::Image)> = images
         .iter()
         .map(|(label, r)| (label.as_str(), &r.image))
         .collect();

@@ -4,12 +4,12 @@
 //! the yarn length ratio (deformed / rest polyline length — naive embedding stretches the yarn
 //! with the mesh, a mechanics-aware result straightens loops instead) and the out-of-plane
 //! loop displacement, and draws a top view of both at the largest stretch, plus both rendered as
-//! shaded yarn tubes of radius R (`deform_runtime::render`) at the same scale.
+//! shaded yarn tubes of radius R (`yarn_output::render`) at the same scale.
 
-use deform_runtime::output::Polylines;
 use deform_runtime::pipeline::{SetupOptions, build};
-use deform_runtime::render::{Camera, Framing, RenderOptions, Rendering, render_tubes};
 use deform_runtime::{DeformOptions, Deformer, Real, synthetic};
+use yarn_output::Polylines;
+use yarn_output::render::{Camera, Framing, RenderOptions, Rendering, render_tubes};
 
 use super::deform_real_db as real;
 use crate::plot::{LineChart, Series, save_images, save_side_by_side};

@@ -95,7 +95,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         images.push((format!("{name} (front)"), image.image));
         progress.inc(1);
     }
-    let panels: Vec<(&str, &deform_runtime::render::Image)> =
+    let panels: Vec<(&str, &yarn_output::render::Image)> =
         images.iter().map(|(t, i)| (t.as_str(), i)).collect();
     save_images(&panels, &ctx.out_dir, &format!("{}-images", ctx.name))?;
     // The data as a chart too: curls per pattern as markers.

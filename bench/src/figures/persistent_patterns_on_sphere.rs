@@ -54,7 +54,6 @@
 use std::time::Instant;
 
 use anyhow::Context;
-use deform_runtime::render::{Camera, Framing, Image, RenderOptions};
 use rod::geometry::V3;
 use serde_json::json;
 use sim_persistent::chart::Chart;
@@ -65,6 +64,7 @@ use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::output::{CurveOptions, RenderCurves};
 use sim_persistent::topology::Topology;
 use sim_persistent::weave::WeavePattern;
+use yarn_output::render::{Camera, Framing, Image, RenderOptions};
 
 use crate::plot::{LineChart, Series, save_images};
 use crate::studies::persistent::{ALPHA, LOOP_WIDTH, SwatchSettings, positions, run_steps};
@@ -508,7 +508,7 @@ fn render(
     camera: Camera,
     framing: Framing,
     size: u32,
-) -> anyhow::Result<deform_runtime::render::Rendering> {
+) -> anyhow::Result<yarn_output::render::Rendering> {
     let r = drop.yarn_radius;
     let curves = RenderCurves::from_simulator(
         &drop.sim,
@@ -519,7 +519,7 @@ fn render(
     )?;
     let mut lines: Vec<Vec<V3>> = curves.samples.clone();
     let mut palette: Vec<[u8; 3]> = (0..lines.len())
-        .map(|c| deform_runtime::render::DEFAULT_PALETTE[c % 7])
+        .map(|c| yarn_output::render::DEFAULT_PALETTE[c % 7])
         .collect();
     let rho = drop.radius - r;
     let point = |theta: f64, phi: f64| {
@@ -561,7 +561,7 @@ fn render(
         offsets.push(u32::try_from(x.len())?);
     }
     let closed = vec![false; lines.len()];
-    let polylines = deform_runtime::output::Polylines {
+    let polylines = yarn_output::Polylines {
         x: &x,
         y: &y,
         z: &z,
@@ -575,7 +575,7 @@ fn render(
         palette,
         ..RenderOptions::new(size, size, r)
     };
-    Ok(deform_runtime::render::render_tubes(&polylines, &options)?)
+    Ok(yarn_output::render::render_tubes(&polylines, &options)?)
 }
 
 /// Renders every drop with `camera` at one common scale (the smallest auto-fit scale), each

@@ -487,9 +487,9 @@ pub fn render(
     size: (u32, u32),
     direction: [f64; 3],
     up: [f64; 3],
-) -> anyhow::Result<deform_runtime::render::Rendering> {
-    use deform_runtime::render::{Camera, Framing, RenderOptions};
+) -> anyhow::Result<yarn_output::render::Rendering> {
     use sim_persistent::output::{CurveOptions, RenderCurves};
+    use yarn_output::render::{Camera, Framing, RenderOptions};
     let curves = RenderCurves::from_simulator(
         sim,
         &CurveOptions {

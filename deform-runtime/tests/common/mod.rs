@@ -4,8 +4,8 @@
 use deform_runtime::obj::ObjMesh;
 use deform_runtime::pipeline::{SetupOptions, build};
 use deform_runtime::{DeformOptions, Deformer, Real, synthetic};
-use sim_periodic::madypg::Database;
-use sim_periodic::tile::Tile;
+use yarn_pattern::madypg::Database;
+use yarn_pattern::tile::Tile;
 
 /// The stockinette tile from the project's test data.
 pub fn stockinette() -> Tile {
@@ -13,7 +13,7 @@ pub fn stockinette() -> Tile {
         env!("CARGO_MANIFEST_DIR"),
         "/../tests/data/patterns/stockinette.pyp"
     );
-    sim_periodic::pyp::read_pyp(path)
+    yarn_pattern::pyp::read_pyp(path)
         .expect("stockinette test data")
         .tile
 }

@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
-use sim_periodic::madypg::{Database, DatabaseError, NpyProblem};
-use sim_periodic::pyp::{Block, PypError, parse_pyp, read_pyp, to_pyp_string, write_pyp};
-use sim_periodic::tile::TileError;
+use yarn_pattern::madypg::{Database, DatabaseError, NpyProblem};
+use yarn_pattern::pyp::{Block, PypError, parse_pyp, read_pyp, to_pyp_string, write_pyp};
+use yarn_pattern::tile::TileError;
 
 const STOCKINETTE: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -515,7 +515,7 @@ fn npy_header_is_well_formed() {
         assert_eq!(
             header.trim_end(),
             format!(
-                "{{'descr': '<f4', 'fortran_order': False, 'shape': ({}, 4), }}",
+                "{{'descr': '<f4', 'fortran_order': False, 'shape': ({}, 4, ), }}",
                 2 * n_vertices
             )
         );
@@ -604,7 +604,7 @@ fn malformed_databases_give_clear_errors() {
         std::fs::write(&path, &bytes[..40]).unwrap();
     });
     assert!(
-        msg.contains("data.npy") && msg.contains("expected a header of 128 bytes"),
+        msg.contains("data.npy") && msg.contains("expected a valid .npy file"),
         "{msg}"
     );
 
@@ -612,7 +612,10 @@ fn malformed_databases_give_clear_errors() {
     let (_, msg) = database_error("bad-magic", |dir| {
         std::fs::write(dir.join("data.npy"), b"PK\x03\x04 a zip file").unwrap();
     });
-    assert!(msg.contains("expected the .npy magic string"), "{msg}");
+    assert!(
+        msg.contains("data.npy") && msg.contains("expected a valid .npy file"),
+        "{msg}"
+    );
 
     // Wrong dtype (float64).
     let (err, msg) = database_error("bad-dtype", |dir| replace_header(dir, "'<f4'", "'<f8'"));
@@ -635,21 +638,21 @@ fn malformed_databases_give_clear_errors() {
 
     // Wrong shape: (120,) and (60, 8) and rows not divisible by |SX||SA||SY| = 24.
     let (_, msg) = database_error("bad-shape-1d", |dir| {
-        replace_header(dir, "(120, 4)", "(480,)")
+        replace_header(dir, "(120, 4, )", "(480,)")
     });
     assert!(
         msg.contains("expected shape (R, 4)") && msg.contains("[480]"),
         "{msg}"
     );
     let (_, msg) = database_error("bad-shape-8", |dir| {
-        replace_header(dir, "(120, 4)", "(60, 8)")
+        replace_header(dir, "(120, 4, )", "(60, 8)")
     });
     assert!(
         msg.contains("expected shape (R, 4)") && msg.contains("[60, 8]"),
         "{msg}"
     );
     let (_, msg) = database_error("bad-rows", |dir| {
-        replace_header(dir, "(120, 4)", "(100, 4)");
+        replace_header(dir, "(120, 4, )", "(100, 4)");
         let path = dir.join("data.npy");
         let bytes = std::fs::read(&path).unwrap();
         std::fs::write(&path, &bytes[..bytes.len() - 20 * 16]).unwrap();
@@ -663,7 +666,10 @@ fn malformed_databases_give_clear_errors() {
     let (_, msg) = database_error("bad-header", |dir| {
         replace_header(dir, "'shape'", "'shapes'")
     });
-    assert!(msg.contains("expected a header dictionary"), "{msg}");
+    assert!(
+        msg.contains("expected a valid .npy file") && msg.contains("header dictionary"),
+        "{msg}"
+    );
 
     // Non-increasing axis (line 2).
     let (err, msg) = database_error("bad-increasing", |dir| {

@@ -28,7 +28,8 @@ pub const AXES_FILE: &str = "axes.txt";
 /// Name of the data file in a database directory.
 pub const DATA_FILE: &str = "data.npy";
 
-const NPY_MAGIC: &[u8] = b"\x93NUMPY";
+/// The NumPy type string of the stored values: little-endian `f32`.
+const F32_LE: &str = "<f4";
 
 /// A displacement database ΔQ(sx, sa, sy) of a tile with `n_vertices` vertices.
 #[derive(Clone, Debug, PartialEq)]
@@ -97,28 +98,10 @@ pub enum AxisProblem {
 /// Why a `data.npy` file is not a valid database array.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum NpyProblem {
-    /// The file does not start with `\x93NUMPY`.
-    #[error("expected the .npy magic string \\x93NUMPY at the start of the file")]
-    BadMagic,
-    /// A format version other than 1.0 or 2.0.
-    #[error("expected .npy format version 1.0 or 2.0, found {major}.{minor}")]
-    UnsupportedVersion {
-        /// Major version.
-        major: u8,
-        /// Minor version.
-        minor: u8,
-    },
-    /// The file ends inside the header.
-    #[error("expected a header of {expected} bytes, file ends after {found}")]
-    TruncatedHeader {
-        /// Bytes expected (preamble + header).
-        expected: usize,
-        /// Bytes in the file.
-        found: usize,
-    },
-    /// The header is not a dictionary literal with the expected keys.
+    /// Not a readable `.npy` file (magic string, version, header dictionary or data), as
+    /// reported by the npyz reader.
     #[error(
-        "expected a header dictionary {{'descr': ..., 'fortran_order': ..., 'shape': ...}}: {0}"
+        "expected a valid .npy file (format 1.0–3.0, header dictionary with 'descr', 'fortran_order', 'shape'): {0}"
     )]
     BadHeader(String),
     /// The element type is not little-endian `f32`.
@@ -268,7 +251,7 @@ impl Database {
         std::fs::write(&path, axes).map_err(|source| io_error(&path, source))?;
 
         let path = dir.join(DATA_FILE);
-        let bytes = npy_bytes(&self.data);
+        let bytes = npy_bytes(&self.data).map_err(|source| io_error(&path, source))?;
         std::fs::write(&path, bytes).map_err(|source| io_error(&path, source))
     }
 
@@ -366,214 +349,60 @@ fn parse_axes(text: &str, path: &Path) -> Result<[Vec<f64>; 3], DatabaseError> {
     Ok(axes)
 }
 
-/// The `.npy` (version 1.0) bytes of an `(R, 4)` little-endian `f32` array.
-fn npy_bytes(rows: &[[f32; 4]]) -> Vec<u8> {
-    let mut header = format!(
-        "{{'descr': '<f4', 'fortran_order': False, 'shape': ({}, 4), }}",
-        rows.len()
-    );
-    // Magic (6) + version (2) + header length (2) + header + '\n': a multiple of 64.
-    let unpadded = NPY_MAGIC.len() + 4 + header.len() + 1;
-    header.push_str(&" ".repeat(unpadded.next_multiple_of(64) - unpadded));
-    header.push('\n');
-    let header_len = u16::try_from(header.len()).expect("the header is a few hundred bytes");
-
-    let mut bytes = Vec::with_capacity(10 + header.len() + 16 * rows.len());
-    bytes.extend_from_slice(NPY_MAGIC);
-    bytes.extend_from_slice(&[1, 0]);
-    bytes.extend_from_slice(&header_len.to_le_bytes());
-    bytes.extend_from_slice(header.as_bytes());
-    for row in rows {
-        for x in row {
-            bytes.extend_from_slice(&x.to_le_bytes());
-        }
-    }
-    bytes
+/// The `.npy` bytes (format 1.0, through npyz) of an `(R, 4)` little-endian `f32` array.
+fn npy_bytes(rows: &[[f32; 4]]) -> std::io::Result<Vec<u8>> {
+    use npyz::WriterBuilder as _;
+    let mut bytes = Vec::with_capacity(128 + 16 * rows.len());
+    let mut writer = npyz::WriteOptions::new()
+        .dtype(npyz::DType::Plain(
+            F32_LE.parse().expect("a valid type string"),
+        ))
+        .shape(&[rows.len() as u64, 4])
+        .writer(&mut bytes)
+        .begin_nd()?;
+    writer.extend(rows.iter().flatten().copied())?;
+    writer.finish()?;
+    Ok(bytes)
 }
 
-/// Parses an `.npy` file holding an `(R, 4)` little-endian `f32` array: `(R, rows)`.
+/// Parses an `.npy` file (through npyz) holding an `(R, 4)` little-endian `f32` array:
+/// `(R, rows)`.
 fn parse_npy(bytes: &[u8]) -> Result<(usize, Vec<[f32; 4]>), NpyProblem> {
-    if !bytes.starts_with(NPY_MAGIC) {
-        return Err(NpyProblem::BadMagic);
+    let mut rest = bytes;
+    let npy = npyz::NpyHeader::from_reader(&mut rest)
+        .map_err(|e| NpyProblem::BadHeader(e.to_string()))?;
+    match npy.dtype() {
+        npyz::DType::Plain(t) if t.to_string() == F32_LE => {}
+        other => {
+            let found = match other {
+                npyz::DType::Plain(t) => t.to_string(),
+                other => format!("{}", other.descr()),
+            };
+            return Err(NpyProblem::WrongDtype { found });
+        }
     }
-    let truncated = |expected| NpyProblem::TruncatedHeader {
-        expected,
-        found: bytes.len(),
-    };
-    let (major, minor) = match bytes.get(6..8) {
-        Some(&[major, minor]) => (major, minor),
-        _ => return Err(truncated(10)),
-    };
-    let (header_start, header_len) = match (major, minor) {
-        (1, 0) => match bytes.get(8..10) {
-            Some(b) => (10, usize::from(u16::from_le_bytes([b[0], b[1]]))),
-            None => return Err(truncated(10)),
-        },
-        (2, 0) => match bytes.get(8..12) {
-            Some(b) => (12, u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize),
-            None => return Err(truncated(12)),
-        },
-        _ => return Err(NpyProblem::UnsupportedVersion { major, minor }),
-    };
-    let data_start = header_start + header_len;
-    let Some(header) = bytes.get(header_start..data_start) else {
-        return Err(truncated(data_start));
-    };
-    let header = std::str::from_utf8(header)
-        .map_err(|_| NpyProblem::BadHeader("the header is not ASCII text".into()))?;
-    let header = parse_header(header)?;
-    if header.descr != "<f4" {
-        return Err(NpyProblem::WrongDtype {
-            found: header.descr,
-        });
-    }
-    if header.fortran_order {
+    if npy.order() == npyz::Order::Fortran {
         return Err(NpyProblem::FortranOrder);
     }
-    let rows = match header.shape[..] {
+    let shape: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
+    let rows = match shape[..] {
         [rows, 4] if rows >= 1 => rows,
-        _ => {
-            return Err(NpyProblem::WrongShape {
-                found: header.shape,
-            });
-        }
+        _ => return Err(NpyProblem::WrongShape { found: shape }),
     };
-    let payload = &bytes[data_start..];
-    let expected = rows.saturating_mul(16);
-    if payload.len() != expected {
+    let expected = rows.checked_mul(16).unwrap_or(usize::MAX);
+    if rest.len() != expected {
         return Err(NpyProblem::DataLength {
             rows,
             expected,
-            found: payload.len(),
+            found: rest.len(),
         });
     }
-    let data = payload
-        .chunks_exact(16)
-        .map(|row| {
-            let f = |k: usize| f32::from_le_bytes([row[k], row[k + 1], row[k + 2], row[k + 3]]);
-            [f(0), f(4), f(8), f(12)]
-        })
+    let values = npyz::NpyFile::with_header(npy, rest)
+        .into_vec::<f32>()
+        .map_err(|e| NpyProblem::BadHeader(e.to_string()))?;
+    let data = values
+        .chunks_exact(4)
+        .map(|c| [c[0], c[1], c[2], c[3]])
         .collect();
     Ok((rows, data))
-}
-
-/// The three entries of an `.npy` header dictionary.
-struct NpyHeader {
-    descr: String,
-    fortran_order: bool,
-    shape: Vec<usize>,
-}
-
-/// Parses the Python dictionary literal of an `.npy` header (string, boolean and integer
-/// tuple values only, as written by NumPy).
-fn parse_header(text: &str) -> Result<NpyHeader, NpyProblem> {
-    let bad = |what: &str| NpyProblem::BadHeader(what.to_string());
-    let inner = text
-        .trim()
-        .strip_prefix('{')
-        .and_then(|t| t.strip_suffix('}'))
-        .ok_or_else(|| bad("expected a dictionary literal {...}"))?;
-    let mut cur = Cursor { rest: inner };
-    let (mut descr, mut fortran_order, mut shape) = (None, None, None);
-    loop {
-        cur.skip_ws();
-        if cur.rest.is_empty() {
-            break;
-        }
-        let key = cur.string().ok_or_else(|| bad("expected a quoted key"))?;
-        cur.skip_ws();
-        if !cur.eat(":") {
-            return Err(bad("expected ':' after a key"));
-        }
-        cur.skip_ws();
-        match key {
-            "descr" => {
-                descr = Some(
-                    cur.string()
-                        .ok_or_else(|| bad("expected a quoted 'descr'"))?,
-                )
-            }
-            "fortran_order" => {
-                fortran_order = Some(if cur.eat("True") {
-                    true
-                } else if cur.eat("False") {
-                    false
-                } else {
-                    return Err(bad("expected True or False for 'fortran_order'"));
-                })
-            }
-            "shape" => {
-                shape = Some(
-                    cur.tuple()
-                        .ok_or_else(|| bad("expected a tuple of integers for 'shape'"))?,
-                )
-            }
-            _ => return Err(NpyProblem::BadHeader(format!("unexpected key {key:?}"))),
-        }
-        cur.skip_ws();
-        if !cur.eat(",") {
-            cur.skip_ws();
-            if !cur.rest.is_empty() {
-                return Err(bad("expected ',' between entries"));
-            }
-        }
-    }
-    match (descr, fortran_order, shape) {
-        (Some(descr), Some(fortran_order), Some(shape)) => Ok(NpyHeader {
-            descr: descr.to_string(),
-            fortran_order,
-            shape,
-        }),
-        _ => Err(bad(
-            "expected the keys 'descr', 'fortran_order' and 'shape'",
-        )),
-    }
-}
-
-/// A tiny scanner over the header text.
-struct Cursor<'a> {
-    rest: &'a str,
-}
-
-impl<'a> Cursor<'a> {
-    fn skip_ws(&mut self) {
-        self.rest = self.rest.trim_start();
-    }
-
-    /// Consumes `word` if the text starts with it.
-    fn eat(&mut self, word: &str) -> bool {
-        match self.rest.strip_prefix(word) {
-            Some(rest) => {
-                self.rest = rest;
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// A string literal in single or double quotes (no escapes).
-    fn string(&mut self) -> Option<&'a str> {
-        let quote = self
-            .rest
-            .chars()
-            .next()
-            .filter(|&c| c == '\'' || c == '"')?;
-        let body = &self.rest[1..];
-        let end = body.find(quote)?;
-        self.rest = &body[end + 1..];
-        Some(&body[..end])
-    }
-
-    /// A tuple of non-negative integers: `()`, `(3,)`, `(3, 4)`.
-    fn tuple(&mut self) -> Option<Vec<usize>> {
-        let body = self.rest.strip_prefix('(')?;
-        let end = body.find(')')?;
-        self.rest = &body[end + 1..];
-        body[..end]
-            .split(',')
-            .map(str::trim)
-            .filter(|t| !t.is_empty())
-            .map(|t| t.parse().ok())
-            .collect()
-    }
 }

@@ -1,5 +1,5 @@
 //! A small software renderer of yarn polylines as shaded tubes, and a minimal PNG encoder, for
-//! figures and the CLI's `--png` output (no image crates).
+//! figures and the `--png` / PNG frame output of the command-line tools.
 //!
 //! Every segment of every curve is a capsule of radius R (a cylinder with hemispherical caps,
 //! so consecutive segments join smoothly; a one-vertex curve is a sphere). Under the
@@ -19,16 +19,14 @@
 //! curves, or no finite vertex) gives a blank image of the background colour with
 //! [`Rendering::segments`] = 0; it is not an error, so an animation keeps one image per frame.
 //! Invalid options (zero size, R ≤ 0, a degenerate camera) and inconsistent polylines are
-//! errors ([`DeformError::Option`]).
+//! errors ([`OutputError::Option`]).
 //!
-//! The PNG encoder ([`encode_png`]) writes 8-bit RGB, filter 0, and a zlib stream of *stored*
-//! (uncompressed) deflate blocks: ≈ 3 bytes per pixel, readable by every PNG decoder.
+//! Images are written as 8-bit RGB PNG through the `png` crate ([`Image::to_png`]).
 
 use std::path::Path;
 
-use crate::error::{DeformError, Result};
-use crate::output::Polylines;
-use crate::real::Real;
+use crate::error::{OutputError, Result};
+use crate::polylines::Polylines;
 
 /// An orthographic camera: where it looks and which way is up.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -128,7 +126,7 @@ impl RenderOptions {
     /// Checks every option (done by [`render_tubes`] too); the camera is checked as well.
     pub fn validate(&self) -> Result<()> {
         basis(&self.camera)?;
-        let bad = |name: &'static str, message: String| Err(DeformError::Option { name, message });
+        let bad = |name: &'static str, message: String| Err(OutputError::Option { name, message });
         let ss = u64::from(self.supersample);
         if self.width == 0
             || self.height == 0
@@ -221,17 +219,22 @@ impl Image {
         [self.rgb[k], self.rgb[k + 1], self.rgb[k + 2]]
     }
 
-    /// The image as PNG bytes ([`encode_png`]).
-    pub fn to_png(&self) -> Vec<u8> {
-        encode_png(self.width, self.height, &self.rgb)
+    /// The image as PNG bytes: 8-bit RGB, encoded by the `png` crate.
+    pub fn to_png(&self) -> Result<Vec<u8>> {
+        let mut bytes = Vec::new();
+        let mut encoder = png::Encoder::new(&mut bytes, self.width, self.height);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        let encoded = encoder
+            .write_header()
+            .and_then(|mut writer| writer.write_image_data(&self.rgb));
+        encoded.map_err(|e| OutputError::Invalid(format!("PNG encoding failed: {e}")))?;
+        Ok(bytes)
     }
 
     /// Writes the image as a PNG file.
     pub fn write_png(&self, path: &Path) -> Result<()> {
-        std::fs::write(path, self.to_png()).map_err(|source| DeformError::Io {
-            path: path.to_path_buf(),
-            source,
-        })
+        crate::write_file(path, &self.to_png()?)
     }
 }
 
@@ -272,7 +275,7 @@ fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
 
 /// The camera's (right, up, forward) basis.
 fn basis(camera: &Camera) -> Result<[[f64; 3]; 3]> {
-    let err = || DeformError::Option {
+    let err = || OutputError::Option {
         name: "camera",
         message: format!(
             "expected finite non-zero, non-parallel direction and up, found {:?} and {:?}",
@@ -327,7 +330,7 @@ fn hit_capsule(px: f64, py: f64, a: [f64; 3], b: [f64; 3], r: f64) -> Option<f64
 }
 
 /// Renders the curves of `lines` as tubes (see the module documentation).
-pub fn render_tubes<T: Real>(
+pub fn render_tubes<T: Copy + Into<f64>>(
     lines: &Polylines<'_, T>,
     options: &RenderOptions,
 ) -> Result<Rendering> {
@@ -340,7 +343,7 @@ pub fn render_tubes<T: Real>(
         && lines.curve_offsets.windows(2).all(|w| w[0] <= w[1])
         && lines.curve_offsets.last().is_none_or(|&e| e as usize <= n);
     if !consistent {
-        return Err(DeformError::Option {
+        return Err(OutputError::Option {
             name: "polylines",
             message: format!(
                 "inconsistent polylines: {n} x, {} y, {} z, {} curve offsets (last {:?}), {} closed flags",
@@ -357,11 +360,7 @@ pub fn render_tubes<T: Real>(
     let mut skipped = 0;
     let cam: Vec<[f64; 3]> = (0..n)
         .map(|k| {
-            let p = [
-                lines.x[k].to_f64(),
-                lines.y[k].to_f64(),
-                lines.z[k].to_f64(),
-            ];
+            let p = [lines.x[k].into(), lines.y[k].into(), lines.z[k].into()];
             if p.iter().all(|c| c.is_finite()) {
                 [dot(p, right), dot(p, up), dot(p, forward)]
             } else {
@@ -517,122 +516,9 @@ pub fn render_tubes<T: Real>(
     })
 }
 
-const CRC_TABLE: [u32; 256] = {
-    let mut table = [0u32; 256];
-    let mut n = 0;
-    while n < 256 {
-        let mut c = n as u32;
-        let mut k = 0;
-        while k < 8 {
-            c = if c & 1 != 0 {
-                0xEDB8_8320 ^ (c >> 1)
-            } else {
-                c >> 1
-            };
-            k += 1;
-        }
-        table[n] = c;
-        n += 1;
-    }
-    table
-};
-
-/// CRC-32 (ISO 3309 / ITU-T V.42, polynomial 0xEDB88320 reflected) as used by PNG chunks.
-pub fn crc32(bytes: &[u8]) -> u32 {
-    !bytes.iter().fold(!0u32, |c, &b| {
-        CRC_TABLE[((c ^ u32::from(b)) & 0xFF) as usize] ^ (c >> 8)
-    })
-}
-
-/// Adler-32 checksum (RFC 1950) of the uncompressed data of a zlib stream.
-pub fn adler32(bytes: &[u8]) -> u32 {
-    const MOD: u32 = 65521;
-    let (mut a, mut b) = (1u32, 0u32);
-    // 5552 bytes is the longest run for which the sums cannot overflow u32 (RFC 1950 / zlib).
-    for block in bytes.chunks(5552) {
-        for &x in block {
-            a += u32::from(x);
-            b += a;
-        }
-        a %= MOD;
-        b %= MOD;
-    }
-    (b << 16) | a
-}
-
-fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
-    out.extend_from_slice(&(data.len() as u32).to_be_bytes());
-    let start = out.len();
-    out.extend_from_slice(kind);
-    out.extend_from_slice(data);
-    let crc = crc32(&out[start..]);
-    out.extend_from_slice(&crc.to_be_bytes());
-}
-
-/// Encodes `width × height` 8-bit RGB pixels (`rgb`, row-major from the top, 3 bytes per
-/// pixel) as a PNG: signature, `IHDR` (colour type 2, no interlace), one `IDAT` holding a zlib
-/// stream of stored deflate blocks (≤ 65535 bytes each, every scanline with filter 0) and its
-/// Adler-32, and `IEND`; every chunk carries its CRC-32.
-///
-/// # Panics
-/// If `rgb.len() != 3 · width · height`.
-pub fn encode_png(width: u32, height: u32, rgb: &[u8]) -> Vec<u8> {
-    let row = 3 * width as usize;
-    assert_eq!(rgb.len(), row * height as usize, "RGB buffer size");
-    let mut raw = Vec::with_capacity((row + 1) * height as usize);
-    for line in rgb.chunks_exact(row.max(1)).take(height as usize) {
-        raw.push(0);
-        raw.extend_from_slice(line);
-    }
-    let mut z = Vec::with_capacity(raw.len() + raw.len() / 65535 * 5 + 16);
-    // CMF = 0x78 (deflate, 32 KiB window), FLG = 0x01 (no dictionary, check bits).
-    z.extend_from_slice(&[0x78, 0x01]);
-    let blocks: Vec<&[u8]> = if raw.is_empty() {
-        vec![&[]]
-    } else {
-        raw.chunks(65535).collect()
-    };
-    for (k, block) in blocks.iter().enumerate() {
-        let last = k + 1 == blocks.len();
-        z.push(u8::from(last)); // BFINAL, BTYPE = 00 (stored)
-        let len = block.len() as u16;
-        z.extend_from_slice(&len.to_le_bytes());
-        z.extend_from_slice(&(!len).to_le_bytes());
-        z.extend_from_slice(block);
-    }
-    z.extend_from_slice(&adler32(&raw).to_be_bytes());
-    let mut out = Vec::with_capacity(z.len() + 64);
-    out.extend_from_slice(b"\x89PNG\r\n\x1a\n");
-    let mut ihdr = Vec::with_capacity(13);
-    ihdr.extend_from_slice(&width.to_be_bytes());
-    ihdr.extend_from_slice(&height.to_be_bytes());
-    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
-    chunk(&mut out, b"IHDR", &ihdr);
-    chunk(&mut out, b"IDAT", &z);
-    chunk(&mut out, b"IEND", &[]);
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn checksums_match_published_check_values() {
-        // The CRC-32 check value of "123456789" (Rocksoft catalogue) and RFC 1950's example.
-        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
-        assert_eq!(crc32(b""), 0);
-        assert_eq!(adler32(b"Wikipedia"), 0x11E6_0398);
-        assert_eq!(adler32(b""), 1);
-        // Long input exercises the modular reduction: 1 MiB of 0xFF.
-        let long = vec![0xFFu8; 1 << 20];
-        let (mut a, mut b) = (1u64, 0u64);
-        for &x in &long {
-            a = (a + u64::from(x)) % 65521;
-            b = (b + a) % 65521;
-        }
-        assert_eq!(adler32(&long), ((b << 16) | a) as u32);
-    }
 
     #[test]
     fn capsule_hits_match_closed_forms() {

@@ -1,0 +1,125 @@
+//! The curve writers on one small set of polylines (an open curve, a closed one, a
+//! one-vertex curve): OBJ and PLY structure, `.bcc` header and payload, and the `.usda` file
+//! read back by an independent USD parser (openusd), so that it is checked against the USD
+//! grammar and not only against our own expectations.
+
+use openusd::sdf::{Path, Value};
+use yarn_output::bcc::{BccHeader, CurveType};
+use yarn_output::usda::UsdOptions;
+use yarn_output::{PolylineBuf, UpAxis, bcc, obj, ply, usda};
+
+/// Curve 0 open with 3 points, curve 1 closed with 4, curve 2 a single point.
+fn sample() -> PolylineBuf {
+    let mut b = PolylineBuf::default();
+    let open = [[0.0, 0.0, 0.0], [1e-3, 0.5e-3, 0.0], [2e-3, 0.0, 0.25e-3]];
+    let closed = [
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [1.0, 2.0, 0.0],
+        [0.0, 2.0, 0.5],
+    ];
+    b.push_curve(open, false).unwrap();
+    b.push_curve(closed, true).unwrap();
+    b.push_curve([[5.0, 5.0, 5.0]], false).unwrap();
+    b
+}
+
+#[test]
+fn obj_lists_vertices_and_one_element_per_drawable_curve() {
+    let text = obj::to_string(&sample().view(), "test curves");
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("# test curves"));
+    assert_eq!(text.lines().filter(|l| l.starts_with("v ")).count(), 8);
+    assert!(
+        text.contains("v 0.001 0.0005 0\n"),
+        "shortest round-trip form:\n{text}"
+    );
+    let elements: Vec<&str> = text.lines().filter(|l| l.starts_with("l ")).collect();
+    assert_eq!(elements, ["l 1 2 3", "l 4 5 6 7 4"]);
+}
+
+#[test]
+fn ply_counts_match_the_body() {
+    let text = ply::to_string(&sample().view(), "test curves");
+    assert!(text.contains("element vertex 8\n") && text.contains("element edge 6\n"));
+    let body: Vec<&str> = text.split("end_header\n").nth(1).unwrap().lines().collect();
+    assert_eq!(body.len(), 8 + 6);
+    assert_eq!(
+        body[7], "5 5 5 2",
+        "the single-point curve keeps its vertex"
+    );
+    assert_eq!(body[8 + 5], "6 3 1", "the closing edge of the closed curve");
+}
+
+#[test]
+fn bcc_header_and_payload() {
+    let b = sample();
+    let header = BccHeader {
+        curve: CurveType::CatmullRom,
+        up: UpAxis::Z,
+        info: "yarn-output test",
+    };
+    let bytes = bcc::to_bytes(&b.view(), &header).unwrap();
+    assert_eq!(&bytes[0..8], b"BCC\x44C0\x03\x02");
+    assert_eq!(u64::from_le_bytes(bytes[8..16].try_into().unwrap()), 3);
+    assert_eq!(u64::from_le_bytes(bytes[16..24].try_into().unwrap()), 8);
+    assert!(bytes[24..64].starts_with(b"yarn-output test\0"));
+    assert_eq!(bytes.len(), 64 + 3 * 4 + 8 * 12);
+    let n1 = 64 + 4 + 3 * 12;
+    assert_eq!(
+        i32::from_le_bytes(bytes[n1..n1 + 4].try_into().unwrap()),
+        -4
+    );
+    let long = BccHeader {
+        info: "an info text that is longer than forty bytes",
+        ..header
+    };
+    assert!(bcc::to_bytes(&b.view(), &long).is_err());
+}
+
+#[test]
+fn usda_parses_with_an_independent_usd_parser() {
+    let options = UsdOptions {
+        radius: 0.5e-3,
+        up: UpAxis::Y,
+        comment: "yarn-output \"test\" curves",
+    };
+    let text = usda::to_string(&sample().view(), &options).unwrap();
+    let data = openusd::usda::parse(&text).unwrap_or_else(|e| panic!("{e:#}\n{text}"));
+    let value = |path: &str, field: &str| -> Value {
+        let spec = data.spec(&Path::new(path).unwrap());
+        let spec = spec.unwrap_or_else(|| panic!("no spec {path} in\n{text}"));
+        let found = spec.fields.iter().find(|(k, _)| k == field);
+        found
+            .unwrap_or_else(|| panic!("{path} has no {field}"))
+            .1
+            .clone()
+    };
+    assert!(matches!(value("/Yarns", "typeName"), Value::Token(t) if t.as_str() == "BasisCurves"));
+    assert!(
+        matches!(value("/Yarns.curveVertexCounts", "default"), Value::IntVec(v) if v == [3, 5])
+    );
+    match value("/Yarns.points", "default") {
+        Value::Vec3fVec(p) => {
+            assert_eq!(p.len(), 8);
+            assert_eq!((p[1].x, p[1].y), (1e-3, 0.5e-3));
+            assert_eq!(
+                (p[7].x, p[7].y),
+                (p[3].x, p[3].y),
+                "the closed curve repeats its start"
+            );
+        }
+        other => panic!("points: {other:?}"),
+    }
+    assert!(matches!(value("/Yarns.widths", "default"), Value::FloatVec(w) if w == [1e-3]));
+
+    // The parser is not vacuous: a file with a missing bracket is rejected.
+    let broken = text.replacen("points = [", "points = ", 1);
+    assert!(openusd::usda::parse(&broken).is_err());
+    // A radius that is not positive is refused before anything is written.
+    let bad = UsdOptions {
+        radius: 0.0,
+        ..options
+    };
+    assert!(usda::to_string(&sample().view(), &bad).is_err());
+}
