@@ -123,6 +123,9 @@ pub enum LmError<E> {
 /// (`m × N`) and a state handed to `commit` if the point is accepted.
 pub type LmEval<S> = (DVector<f64>, DMatrix<f64>, S);
 
+/// The residual function of [`bounded_lm`]: parameters → [`LmEval`], or the caller's error.
+pub type LmFn<'a, const N: usize, S, E> = dyn FnMut(&[f64; N]) -> Result<LmEval<S>, E> + 'a;
+
 /// Progress callback: `(iteration, cost)` after each accepted step.
 pub type LmProgress<'a> = &'a mut dyn FnMut(usize, f64);
 
@@ -138,7 +141,7 @@ pub fn bounded_lm<const N: usize, S, E>(
     bounds: &LmBounds<N>,
     settings: &LmSettings,
     constrain: &dyn Fn(&mut [f64; N]),
-    eval: &mut dyn FnMut(&[f64; N]) -> Result<LmEval<S>, E>,
+    eval: &mut LmFn<'_, N, S, E>,
     commit: &mut dyn FnMut(S),
     mut progress: Option<LmProgress<'_>>,
 ) -> Result<LmOutcome<N>, LmError<E>> {
