@@ -21,7 +21,7 @@
 //! per target, one back-substitution, `∂g/∂k_j` exact because the hinge energy is linear in
 //! `k`), not from finite differences.
 //!
-//! **Optimizer.** The bounded Levenberg–Marquardt of [`crate::fit`] in the parameters
+//! **Optimizer.** The bounded Levenberg–Marquardt of [`solver::lm`] (as in [`crate::fit`]) in the parameters
 //! `ln k_j` (positivity for free, and `r` depends on `k` roughly through `ln k`, since the
 //! gravity bending length is `∝ k^{1/3}`), with bounds `[lower, upper]` (N·m) mapped to log
 //! space. A trial point whose equilibria fail is rejected (damping grows); a failure at the
@@ -34,10 +34,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::ShellError;
 use crate::elements::BendingParams;
-use crate::fit::{LmEval, LmSettings, Progress, bounded_lm};
+use crate::fit::{Progress, lm_error};
 use crate::material::{InPlaneParams, Material};
 use crate::pear_loop::{PearLoop, PearLoopConfig};
 use crate::swatch::Direction;
+use solver::{LmBounds, LmEval, LmSettings, bounded_lm};
 
 /// One bending target: a pear-loop aspect ratio at a clamp distance.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -362,10 +363,12 @@ pub fn fit_bending(
     };
     let outcome = bounded_lm(
         p0.map(f64::ln),
-        cfg.lower.map(f64::ln),
-        cfg.upper.map(f64::ln),
-        cfg.fixed,
-        [1.0; 3],
+        &LmBounds {
+            lower: cfg.lower.map(f64::ln),
+            upper: cfg.upper.map(f64::ln),
+            fixed: cfg.fixed,
+            scale: [1.0; 3],
+        },
         &LmSettings {
             max_iterations: cfg.max_iterations,
             cost_rtol: cfg.cost_rtol,
@@ -376,7 +379,8 @@ pub fn fit_bending(
         &mut eval,
         &mut commit,
         progress,
-    )?;
+    )
+    .map_err(lm_error)?;
     let params = BendingParams::from_array(outcome.p.map(f64::exp));
     let simulated: Vec<BendingTarget> = targets
         .iter()
@@ -416,7 +420,7 @@ pub fn fit_bending(
         errors,
         ratio_rel_error,
         seconds: start.elapsed().as_secs_f64(),
-        termination: outcome.termination,
+        termination: outcome.termination.to_string(),
     })
 }
 

@@ -7,13 +7,15 @@
 //! swatch of rest width `w̄` under frictionless clamps is `σ_s w̄`.
 //!
 //! The 1-D minimization is done in `w = 1 − c ≥ 0` by a safeguarded Newton iteration on
-//! `dΨ/dw = vᵀPv` inside a sign-change bracket. For plain StVK the minimum can sit at `w = 0`
+//! `dΨ/dw = vᵀPv` inside a sign-change bracket ([`solver::find_root`]). For plain StVK the minimum can sit at `w = 0`
 //! (`c = 1`, the inversion of Fig. 5): that value is returned, not an error.
 //!
 //! **Bending.** `σ_κ = ∂Ψ_b/∂κ = 2 k_θ κ` (N, per unit length: moment per width).
 
 use nalgebra::{Matrix2, Vector2};
 use serde::{Deserialize, Serialize};
+use solver::{Bracket, RootError, RootEval, RootSettings, find_root};
+use std::convert::Infallible;
 use std::fmt::Write as _;
 
 use crate::ShellError;
@@ -77,47 +79,46 @@ pub fn uniaxial_compression(m: &Material, s: f64, angle: f64) -> Result<f64, She
     }
     let mut lo = hi;
     let mut shrink = 0;
-    loop {
+    let f_lo = loop {
         lo *= 0.5;
         shrink += 1;
         let v = h(lo).0;
         if v.is_nan() || v < 0.0 {
-            // NaN cannot happen for w > 0 (J > 0); treat defensively as "below the root".
-            break;
+            // NaN cannot happen for w > 0 (J > 0); the root finder rejects it loudly.
+            break v;
         }
         if shrink > 200 {
             // Ψ'(w) ≥ 0 all the way down to w → 0: the minimum is at w = 0 (c = 1, inversion).
             return Ok(1.0);
         }
-    }
-    let mut w = 0.5 * (lo + hi);
-    for _ in 0..200 {
+    };
+    let bracket = Bracket {
+        lo,
+        hi,
+        f_lo,
+        f_hi: h(hi).0,
+    };
+    let settings = RootSettings {
+        x_atol: 0.0,
+        x_rtol: 1e-15,
+        f_atol: 0.0,
+        newton_rtol: 1e-15,
+        max_iterations: 200,
+    };
+    let newton = |w: f64| {
         let (d1, d2) = h(w);
-        if d1 < 0.0 {
-            lo = w;
-        } else {
-            hi = w;
-        }
-        if (hi - lo) <= 1e-15 * hi || d1 == 0.0 || (d2 > 0.0 && (d1 / d2).abs() <= 1e-15 * w) {
-            let c = 1.0 - (w - if d2 > 0.0 { d1 / d2 } else { 0.0 });
-            return if c.is_finite() {
-                Ok(c)
-            } else {
-                Err(ShellError::Numerical(format!(
-                    "Eq. 3: non-finite compression at s = {s}"
-                )))
-            };
-        }
-        let newton = w - d1 / d2;
-        w = if d2 > 0.0 && newton > lo && newton < hi {
-            newton
-        } else {
-            0.5 * (lo + hi)
-        };
+        Ok::<_, Infallible>(RootEval::with_derivative(d1, d2))
+    };
+    match find_root(bracket, None, &settings, newton) {
+        Ok(root) => Ok(1.0 - root.x),
+        Err(RootError::NotConverged(r)) => Err(ShellError::Numerical(format!(
+            "Eq. 3: compression root not converged at s = {s} (bracket [{}, {}] in 1 − c)",
+            r.bracket[0], r.bracket[1]
+        ))),
+        Err(e) => Err(ShellError::Numerical(format!(
+            "Eq. 3: compression at s = {s}: {e}"
+        ))),
     }
-    Err(ShellError::Numerical(format!(
-        "Eq. 3: compression root not converged at s = {s} (bracket [{lo}, {hi}] in 1 − c)"
-    )))
 }
 
 /// `{s, c, σ_s}` at each stretch in `stretches` for pulling along `angle` (rad).

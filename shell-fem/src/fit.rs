@@ -14,7 +14,7 @@
 //! equilibrium ([`StretchTest::sensitivities`]: one sparse LU of the exact Hessian per target,
 //! two back-substitutions), not from finite differences of the black box.
 //!
-//! **Optimizer.** Levenberg–Marquardt in scaled parameters `p_k / scale_k` with Marquardt's
+//! **Optimizer.** [`solver::bounded_lm`]: Levenberg–Marquardt in scaled parameters `p_k / scale_k` with Marquardt's
 //! diagonal damping, bounds by projection onto the box `[lower, upper]`, plus
 //! `|kxy| ≤ 0.95 √(kxx kyy)` (positive definite `K`). A trial step whose equilibria fail to
 //! converge is rejected like a step that increases the cost (λ grows); only a failure at the
@@ -24,6 +24,7 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
+use solver::{LmBounds, LmError, LmEval, LmSettings, bounded_lm};
 
 use crate::ShellError;
 use crate::material::{InPlaneParams, Material, Model};
@@ -328,8 +329,17 @@ fn project(p: &mut [f64; 6], cfg: &FitConfig) {
     p[1] = p[1].clamp(-bound, bound);
 }
 
-/// Progress callback: `(iteration, cost)` after each LM iteration.
-pub type Progress<'a> = &'a mut dyn FnMut(usize, f64);
+/// Progress callback: `(iteration, cost)` after each accepted LM step.
+pub type Progress<'a> = solver::lm::LmProgress<'a>;
+
+/// A [`solver::LmError`] as a [`ShellError`]: the initial evaluation's own error, or invalid
+/// input.
+pub(crate) fn lm_error(e: LmError<ShellError>) -> ShellError {
+    match e {
+        LmError::InitialEvaluation(e) => e,
+        LmError::InvalidInput(detail) => ShellError::InvalidInput(detail),
+    }
+}
 
 /// Fits the in-plane parameters to `targets` from `initial` (see the module docs).
 pub fn fit(
@@ -393,10 +403,12 @@ pub fn fit(
     };
     let outcome = bounded_lm(
         p,
-        cfg.lower,
-        cfg.upper,
-        cfg.fixed,
-        scale,
+        &LmBounds {
+            lower: cfg.lower,
+            upper: cfg.upper,
+            fixed: cfg.fixed,
+            scale,
+        },
         &LmSettings {
             max_iterations: cfg.max_iterations,
             cost_rtol: cfg.cost_rtol,
@@ -407,13 +419,14 @@ pub fn fit(
         &mut eval,
         &mut commit,
         progress,
-    )?;
+    )
+    .map_err(lm_error)?;
     let (p, cost, history, iterations, termination) = (
         outcome.p,
         outcome.cost,
         outcome.history,
         outcome.iterations,
-        outcome.termination,
+        outcome.termination.to_string(),
     );
     let params = InPlaneParams::from_array(p);
     let simulated: Vec<Target> = targets
@@ -476,175 +489,6 @@ pub fn fit(
         force_rel_error,
         compression_rel_error,
         seconds: start.elapsed().as_secs_f64(),
-        termination,
-    })
-}
-
-/// Stopping rules of [`bounded_lm`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct LmSettings {
-    /// Maximum iterations (accepted or rejected).
-    pub max_iterations: usize,
-    /// Stop when an accepted step lowers the cost by less than this fraction.
-    pub cost_rtol: f64,
-    /// Stop when the scaled step is smaller than this.
-    pub step_tol: f64,
-    /// Stop when every residual is at most this in magnitude (`≤ 0`: never).
-    pub residual_tol: f64,
-}
-
-/// Result of [`bounded_lm`].
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct LmOutcome<const N: usize> {
-    /// Final parameters.
-    pub p: [f64; N],
-    /// Final cost `‖r‖²`.
-    pub cost: f64,
-    /// Cost after every accepted step (first: the initial guess).
-    pub history: Vec<f64>,
-    /// Iterations (accepted and rejected).
-    pub iterations: usize,
-    /// Why it stopped.
-    pub termination: String,
-}
-
-/// One residual evaluation for [`bounded_lm`]: residuals, Jacobian `∂r/∂p` (rows × `N`) and a
-/// state handed to `commit` if the point is accepted.
-pub(crate) type LmEval<S> = (DVector<f64>, DMatrix<f64>, S);
-
-/// The residual function of [`bounded_lm`]: parameters → [`LmEval`], or an error (a failed
-/// equilibrium).
-pub(crate) type LmFn<'a, const N: usize, S> =
-    dyn FnMut(&[f64; N]) -> Result<LmEval<S>, ShellError> + 'a;
-
-/// The bounded Levenberg–Marquardt iteration of [`fit`] (and of the bending fit) for `N`
-/// generic parameters: Marquardt damping of `JᵀJ` in scaled parameters `p_k / scale_k`,
-/// projection onto `[lower, upper]` followed by `constrain` (further constraints, e.g.
-/// `|kxy| ≤ 0.95 √(kxx kyy)`), an active set for parameters on a bound whose descent points
-/// outward, and `fixed` parameters held. A trial point whose evaluation fails is rejected like
-/// one that increases the cost; a failure at the initial point is an error.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn bounded_lm<const N: usize, S>(
-    p0: [f64; N],
-    lower: [f64; N],
-    upper: [f64; N],
-    fixed: [bool; N],
-    scale: [f64; N],
-    settings: &LmSettings,
-    constrain: &dyn Fn(&mut [f64; N]),
-    eval: &mut LmFn<'_, N, S>,
-    commit: &mut dyn FnMut(S),
-    mut progress: Option<Progress<'_>>,
-) -> Result<LmOutcome<N>, ShellError> {
-    let project = |p: &mut [f64; N]| {
-        for k in 0..N {
-            p[k] = p[k].clamp(lower[k], upper[k]);
-        }
-        constrain(p);
-    };
-    let mut p = p0;
-    project(&mut p);
-    let (mut r, mut jac, state) = eval(&p)?;
-    commit(state);
-    let mut cost = r.norm_squared();
-    let mut history = vec![cost];
-    let mut lambda = 1e-3;
-    let mut iterations = 0;
-    let mut termination = String::from("iteration limit");
-    while iterations < settings.max_iterations {
-        if settings.residual_tol > 0.0 && r.amax() <= settings.residual_tol {
-            termination = "residuals below tolerance".into();
-            break;
-        }
-        iterations += 1;
-        let j = DMatrix::from_fn(jac.nrows(), N, |row, k| {
-            if fixed[k] {
-                0.0
-            } else {
-                jac[(row, k)] * scale[k]
-            }
-        });
-        let jtj = j.transpose() * &j;
-        let jtr = j.transpose() * &r;
-        if jtr.amax() <= 1e-14 * cost.max(f64::MIN_POSITIVE).sqrt() {
-            termination = "gradient at rounding level".into();
-            break;
-        }
-        let held: [bool; N] = std::array::from_fn(|k| {
-            fixed[k] || (p[k] <= lower[k] && jtr[k] > 0.0) || (p[k] >= upper[k] && jtr[k] < 0.0)
-        });
-        let mut a = jtj.clone();
-        let mut rhs = -&jtr;
-        for k in 0..N {
-            a[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
-            if held[k] {
-                for l in 0..N {
-                    a[(k, l)] = 0.0;
-                    a[(l, k)] = 0.0;
-                }
-                a[(k, k)] = 1.0;
-                rhs[k] = 0.0;
-            }
-        }
-        let Some(step) = a.lu().solve(&rhs) else {
-            lambda *= 4.0;
-            continue;
-        };
-        let mut trial = p;
-        for k in 0..N {
-            trial[k] += step[k] * scale[k];
-        }
-        project(&mut trial);
-        let moved = (0..N)
-            .map(|k| ((trial[k] - p[k]) / scale[k]).abs())
-            .fold(0.0, f64::max);
-        if moved <= settings.step_tol {
-            termination = "step below tolerance".into();
-            break;
-        }
-        let accepted = match eval(&trial) {
-            Ok((rt, jt, st)) => {
-                let ct = rt.norm_squared();
-                if ct < cost {
-                    Some((rt, jt, st, ct))
-                } else {
-                    None
-                }
-            }
-            Err(_) => None,
-        };
-        match accepted {
-            Some((rt, jt, st, ct)) => {
-                let decrease = (cost - ct) / cost.max(f64::MIN_POSITIVE);
-                p = trial;
-                commit(st);
-                r = rt;
-                jac = jt;
-                cost = ct;
-                history.push(cost);
-                lambda = (lambda / 3.0).max(1e-12);
-                if let Some(cb) = progress.as_mut() {
-                    cb(iterations, cost);
-                }
-                if decrease < settings.cost_rtol {
-                    termination = "cost decrease below tolerance".into();
-                    break;
-                }
-            }
-            None => {
-                lambda *= 4.0;
-                if lambda > 1e12 {
-                    termination = "damping limit (no further decrease)".into();
-                    break;
-                }
-            }
-        }
-    }
-    Ok(LmOutcome {
-        p,
-        cost,
-        history,
-        iterations,
         termination,
     })
 }

@@ -20,7 +20,7 @@
 use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMat, Triplet};
 use serde::{Deserialize, Serialize};
-use solver::{NewtonSettings, NewtonSolver, Problem};
+use solver::{MarchError, MarchSettings, NewtonSettings, NewtonSolver, Problem, StepError, march};
 
 use crate::ShellError;
 use crate::material::{InPlaneParams, Material};
@@ -78,6 +78,11 @@ impl Direction {
         }
     }
 }
+
+/// Why one load step of [`StretchTest::solve_to`] failed (for [`solver::march`]).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+struct StepFailure(String);
 
 /// Geometry, discretization and solver settings of the stretch test.
 #[derive(Clone, Debug, PartialEq)]
@@ -293,7 +298,8 @@ impl StretchTest {
     }
 
     /// Moves the clamp to stretch `s` in load steps of at most `max_step`, halving a step whose
-    /// Newton solve fails; every step starts from the previous equilibrium stretched affinely.
+    /// Newton solve fails ([`solver::march`]); every step starts from the previous equilibrium
+    /// stretched affinely.
     /// Errors (never NaN) if a step cannot be completed.
     pub fn solve_to(&mut self, s: f64) -> Result<StretchPoint, ShellError> {
         if !s.is_finite() || s <= -1.0 {
@@ -302,55 +308,45 @@ impl StretchTest {
             )));
         }
         let mut iterations = 0;
-        let mut first = true;
-        loop {
-            let remaining = s - self.s;
-            if remaining == 0.0 && !first {
-                break;
+        let settings = MarchSettings {
+            max_step: self.cfg.max_step,
+            max_halvings: self.cfg.max_halvings,
+        };
+        let from = self.s;
+        march(from, s, &settings, |current, target, _| {
+            let backup = self.x.clone();
+            let ratio = (1.0 + target) / (1.0 + current);
+            for v in 0..self.rest.len() {
+                self.x[2 * v] *= ratio;
             }
-            let mut step = remaining.clamp(-self.cfg.max_step, self.cfg.max_step);
-            let mut halvings = 0;
-            loop {
-                // The last step lands exactly on `s` (no rounding drift in the load path).
-                let target = if step == remaining { s } else { self.s + step };
-                let backup = self.x.clone();
-                let ratio = (1.0 + target) / (1.0 + self.s);
-                for v in 0..self.rest.len() {
-                    self.x[2 * v] *= ratio;
+            let detail = match self
+                .solver
+                .minimize(&self.shell, &mut self.x, &self.cfg.newton)
+            {
+                Ok(report) if self.x.iter().all(|v| v.is_finite()) => {
+                    iterations += report.iterations;
+                    self.s = target;
+                    return Ok(());
                 }
-                match self
-                    .solver
-                    .minimize(&self.shell, &mut self.x, &self.cfg.newton)
-                {
-                    Ok(report) if self.x.iter().all(|v| v.is_finite()) => {
-                        iterations += report.iterations;
-                        self.s = target;
-                        break;
-                    }
-                    result => {
-                        self.x = backup;
-                        if halvings >= self.cfg.max_halvings {
-                            let detail = match result {
-                                Err(e) => e.to_string(),
-                                Ok(_) => "non-finite positions".into(),
-                            };
-                            return Err(ShellError::NotConverged {
-                                s: target,
-                                detail: format!(
-                                    "stretch test at {:.1}° failed after {halvings} step halvings \
-                                     (from s = {:.4}): {detail}",
-                                    self.angle_deg(),
-                                    self.s
-                                ),
-                            });
-                        }
-                        halvings += 1;
-                        step *= 0.5;
-                    }
-                }
-            }
-            first = false;
-        }
+                Err(e) => e.to_string(),
+                Ok(_) => "non-finite positions".into(),
+            };
+            self.x = backup;
+            Err(StepError::Halve(StepFailure(detail)))
+        })
+        .map_err(|e| match e {
+            MarchError::Invalid(e) => ShellError::InvalidInput(e.to_string()),
+            MarchError::Failed(e) => ShellError::NotConverged {
+                s: e.failed,
+                detail: format!(
+                    "stretch test at {:.1}° failed after {} step halvings (from s = {:.4}): {}",
+                    self.angle_deg(),
+                    e.depth,
+                    e.last_good,
+                    e.source.0
+                ),
+            },
+        })?;
         let point = self.measure(iterations);
         if !(point.force.is_finite() && point.compression.is_finite()) {
             return Err(ShellError::NotConverged {

@@ -40,6 +40,7 @@ use std::time::Instant;
 
 use nalgebra::{Matrix2, Vector3};
 use rayon::prelude::*;
+use solver::StepError;
 
 use crate::coarse::{Coarse, Strain};
 use crate::madypg::{AXIS_NAMES, Database, DatabaseError};
@@ -537,7 +538,8 @@ impl DatabaseSettings {
 
 /// Solves for `target` warm-started at `from` (a strain and its equilibrium DOFs), halving the
 /// step when an attempt fails, up to `settings.max_bisections` times (so at most
-/// `2^max_bisections` sub-steps). Returns the equilibrium, the Newton iterations and the
+/// `2^max_bisections` sub-steps; [`solver::bisect`], midpoints `(a + b)/2` per strain
+/// component). Returns the equilibrium, the Newton iterations and the
 /// number of sub-steps.
 pub fn continue_to(
     tile: &Tile,
@@ -546,62 +548,48 @@ pub fn continue_to(
     target: Strain,
     settings: &DatabaseSettings,
 ) -> Result<(Equilibrium, usize, usize), GenerationError> {
-    continue_rec(tile, model, from, target, settings.max_bisections, settings)
-}
-
-fn continue_rec(
-    tile: &Tile,
-    model: &YarnModel,
-    from: (Strain, &[f64]),
-    target: Strain,
-    depth: usize,
-    settings: &DatabaseSettings,
-) -> Result<(Equilibrium, usize, usize), GenerationError> {
-    let attempt = if depth == 0 {
-        settings.equilibrium.clone()
-    } else {
-        settings.attempt()
+    let mut last: Option<Equilibrium> = None;
+    let mut iterations = 0;
+    let midpoint = |a: &Strain, b: &Strain| Strain {
+        sx: 0.5 * (a.sx + b.sx),
+        sa: 0.5 * (a.sa + b.sa),
+        sy: 0.5 * (a.sy + b.sy),
     };
-    match solve_equilibrium(
-        tile,
-        model,
-        Coarse::from_strain(&target),
-        Some(from.1),
-        &attempt,
-    ) {
-        Ok(eq) => {
-            let iterations = eq.iterations;
-            Ok((eq, iterations, 1))
-        }
-        Err(source) if depth == 0 => Err(GenerationError::Solve {
-            strain: target,
-            bisections: 0,
-            source,
-        }),
-        Err(_) => {
-            let mid = Strain {
-                sx: 0.5 * (from.0.sx + target.sx),
-                sa: 0.5 * (from.0.sa + target.sa),
-                sy: 0.5 * (from.0.sy + target.sy),
+    let report = solver::bisect(
+        (from.0, target),
+        settings.max_bisections,
+        |(a, b)| {
+            let mid = midpoint(a, b);
+            ((*a, mid), (mid, *b))
+        },
+        |&(_, to), attempt| {
+            // The last allowed halving gets the full Newton budget.
+            let equilibrium = if attempt.last_chance {
+                settings.equilibrium.clone()
+            } else {
+                settings.attempt()
             };
-            let bump = |e: GenerationError| match e {
-                GenerationError::Solve {
-                    source, bisections, ..
-                } => GenerationError::Solve {
-                    strain: target,
-                    bisections: bisections + 1,
-                    source,
-                },
-                other => other,
-            };
-            let (half, i1, s1) =
-                continue_rec(tile, model, from, mid, depth - 1, settings).map_err(bump)?;
-            let (eq, i2, s2) =
-                continue_rec(tile, model, (mid, &half.dofs), target, depth - 1, settings)
-                    .map_err(bump)?;
-            Ok((eq, i1 + i2, s1 + s2))
-        }
-    }
+            let warm = last.as_ref().map_or(from.1, |eq| eq.dofs.as_slice());
+            let eq = solve_equilibrium(
+                tile,
+                model,
+                Coarse::from_strain(&to),
+                Some(warm),
+                &equilibrium,
+            )
+            .map_err(StepError::Halve)?;
+            iterations += eq.iterations;
+            last = Some(eq);
+            Ok(())
+        },
+    )
+    .map_err(|e| GenerationError::Solve {
+        strain: target,
+        bisections: e.depth,
+        source: e.source,
+    })?;
+    let eq = last.expect("a successful continuation solved at least one step");
+    Ok((eq, iterations, report.steps))
 }
 
 /// Index of the sample closest to zero.

@@ -71,7 +71,7 @@ use crate::state::{DofMap, State, gather, kinetic_energy, segment_mass_matrix};
 use crate::topology::Topology;
 use rayon::prelude::*;
 use rod::geometry::V3;
-use solver::{NewtonReport, NewtonSettings, NewtonSolver, SolveError};
+use solver::{NewtonReport, NewtonSettings, NewtonSolver, SolveError, StepError};
 
 /// Time-step parameters (SI units).
 #[derive(Clone, Debug, PartialEq)]
@@ -551,7 +551,8 @@ impl Simulator {
 
     /// Advances the state by one step of length `dt` (module documentation). If the Newton
     /// solve of a step fails, the step is replaced by two half steps, recursively, at most
-    /// [`StepSettings::max_halvings`] times; the state only changes on success.
+    /// [`StepSettings::max_halvings`] times ([`solver::bisect`]); the state only changes on
+    /// success.
     pub fn step(&mut self) -> Result<StepReport, SimError> {
         let mut report = StepReport {
             newton_iterations: 0,
@@ -564,22 +565,21 @@ impl Simulator {
             friction_resolves: 0,
             friction_unresolved: 0,
         };
-        self.advance(self.settings.dt, 0, &mut report)?;
+        solver::bisect(
+            self.settings.dt,
+            self.settings.max_halvings,
+            |&h| (0.5 * h, 0.5 * h),
+            |&h, _| match self.solve_step(h, &mut report) {
+                Ok(()) => Ok(()),
+                // A Newton solve that ran and failed: retry with two half steps.
+                Err(SimError::Solve(e)) if e.report().is_some() => {
+                    Err(StepError::Halve(SimError::Solve(e)))
+                }
+                Err(e) => Err(StepError::Abort(e)),
+            },
+        )
+        .map_err(|e| e.source)?;
         Ok(report)
-    }
-
-    /// One step of length `h`, split in halves on failure (depth `depth`).
-    fn advance(&mut self, h: f64, depth: usize, report: &mut StepReport) -> Result<(), SimError> {
-        match self.solve_step(h, report) {
-            Ok(()) => Ok(()),
-            Err(SimError::Solve(e))
-                if e.report().is_some() && depth < self.settings.max_halvings =>
-            {
-                self.advance(0.5 * h, depth + 1, report)?;
-                self.advance(0.5 * h, depth + 1, report)
-            }
-            Err(e) => Err(e),
-        }
     }
 
     /// Progress `s ∈ [0, 1]` of the wrapping rest-angle ramp at time `t` (s): the smoothstep

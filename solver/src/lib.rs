@@ -9,6 +9,9 @@
 //! | [`newton`] | [`minimize`] / [`NewtonSolver`]: Newton with backtracking line search, Dirichlet DOFs, adaptive diagonal regularization, sparse Cholesky with reused symbolic analysis or preconditioned CG ([`LinearSolver`]); optional fixed-iteration mode (linearized steps) |
 //! | [`pcg`] | [`Pcg`]: preconditioned conjugate gradients (Jacobi or IC(0)) on the assembled lower-triangle Hessian, deterministic parallel matrix–vector products |
 //! | [`constrained`] | [`minimize_constrained`] / [`ConstrainedNewtonSolver`]: Newton under linear equality constraints `Cx = d` via the KKT system and sparse LU |
+//! | [`roots`] | [`find_root`]: safeguarded 1-D root finding in a sign-change bracket (Newton with a derivative, bisection without) |
+//! | [`lm`] | [`bounded_lm`]: bounded Levenberg–Marquardt for small least-squares fits (scaled parameters, active set, extra constraints) |
+//! | [`continuation`] | [`march`] (load stepping with step halving and growth) and [`bisect`] (recursive halving of a segment) |
 //!
 //! Design rules:
 //!
@@ -66,19 +69,28 @@
 
 pub mod assembly;
 pub mod constrained;
+pub mod continuation;
 mod error;
 mod linalg;
+pub mod lm;
 pub mod newton;
 mod pattern;
 pub mod pcg;
+pub mod roots;
 
 pub use assembly::{
     Assembled, Assembler, Problem, eval_rod_stencil, eval_rod_stencil_energy_offset,
     eval_rod_stencil_offset,
 };
 pub use constrained::{ConstrainedNewtonSolver, LinearConstraints, minimize_constrained};
+pub use continuation::{
+    Attempt, ContinuationError, ContinuationReport, MarchError, MarchSettings, StepError, bisect,
+    march,
+};
 pub use error::SolveError;
+pub use lm::{LmBounds, LmError, LmEval, LmOutcome, LmSettings, LmTermination, bounded_lm};
 pub use newton::{
     LinearSolver, NewtonReport, NewtonSettings, NewtonSolver, NewtonTimings, Termination, minimize,
 };
 pub use pcg::{Pcg, PcgFailure, PcgReport, PcgSettings, Preconditioner};
+pub use roots::{Bracket, Root, RootError, RootEval, RootReport, RootSettings, find_root};

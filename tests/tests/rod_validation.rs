@@ -28,7 +28,7 @@ fn cantilever_follows_the_elastica_at_large_deflection() {
     let alphas: Vec<f64> = (1..=30).map(|i| 0.1 * i as f64).collect();
     let points = sweep(&beam, 100, &alphas).expect("Newton converges along the load ramp");
     for p in points.iter().step_by(5) {
-        let (d, r) = elastica_tip(p.alpha);
+        let (d, r) = elastica_tip(p.alpha).expect("elastica reference");
         println!(
             "α = {:.1}: δ/L {:.5} (elastica {:.5}), retraction/L {:.5} (elastica {:.5})",
             p.alpha, p.deflection, d, p.retraction, r

@@ -41,7 +41,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     ]);
     for p in &points {
         let linear = p.alpha / 3.0;
-        let (d_el, r_el) = elastica_tip(p.alpha);
+        let (d_el, r_el) = elastica_tip(p.alpha)?;
         data.push_row([
             p.alpha,
             p.deflection,

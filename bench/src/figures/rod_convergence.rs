@@ -34,7 +34,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         ..Beam::default()
     };
     let ramp: Vec<f64> = (1..=10).map(|i| 0.1 * i as f64).collect();
-    let (elastica, _) = elastica_tip(1.0);
+    let (elastica, _) = elastica_tip(1.0)?;
     let progress = ctx.progress(ns.len() as u64, "refining");
     let mut data = Table::new(&[
         "segments",

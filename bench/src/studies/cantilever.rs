@@ -10,7 +10,11 @@
 
 use rod::bending::BinormalBending;
 use rod::stretch::{Segment, StretchLaw};
-use solver::{NewtonReport, NewtonSettings, NewtonSolver, Problem, SolveError, eval_rod_stencil};
+use solver::{
+    Bracket, NewtonReport, NewtonSettings, NewtonSolver, Problem, RootError, RootEval,
+    RootSettings, SolveError, eval_rod_stencil, find_root,
+};
+use std::convert::Infallible;
 
 /// Beam parameters (SI).
 #[derive(Clone, Copy, Debug)]
@@ -198,10 +202,12 @@ pub fn sweep(beam: &Beam, segments: usize, alphas: &[f64]) -> Result<Vec<SweepPo
 
 /// The elastica reference for a tip-loaded cantilever (inextensible, unshearable):
 /// `θ'' = −α cos θ` on `s ∈ [0, 1]` (θ the tangent angle below horizontal, arc length in
-/// units of L), `θ(0) = 0`, `θ'(1) = 0`. Solved by shooting on `θ'(0)` (bisection; the root
+/// units of L), `θ(0) = 0`, `θ'(1) = 0`. Solved by shooting on `θ'(0)` (bisection with
+/// [`solver::find_root`]; the root
 /// lies in `[0, α]` for the loads used here) with RK4 on 4000 steps.
-/// Returns the tip deflection and retraction over L.
-pub fn elastica_tip(alpha: f64) -> (f64, f64) {
+/// Returns the tip deflection and retraction over L; an error (no sign change) for `α ≤ 0`
+/// or a non-finite `α`.
+pub fn elastica_tip(alpha: f64) -> Result<(f64, f64), RootError<Infallible>> {
     let steps = 4000;
     let ds = 1.0 / steps as f64;
     // State (θ, θ', y, x) with y' = sin θ, x' = cos θ.
@@ -220,17 +226,26 @@ pub fn elastica_tip(alpha: f64) -> (f64, f64) {
         }
         y
     };
-    let (mut lo, mut hi) = (0.0, alpha);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if shoot(mid)[1] > 0.0 {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    let end = shoot(0.5 * (lo + hi));
-    (end[2], 1.0 - end[3])
+    // Bisection to the last bit (no tolerance: the bracket shrinks until no float lies inside).
+    let bracket = Bracket {
+        lo: 0.0,
+        hi: alpha,
+        f_lo: shoot(0.0)[1],
+        f_hi: shoot(alpha)[1],
+    };
+    let settings = RootSettings {
+        x_atol: 0.0,
+        x_rtol: 0.0,
+        f_atol: 0.0,
+        newton_rtol: 0.0,
+        max_iterations: 200,
+    };
+    let slope = find_root(bracket, None, &settings, |m| {
+        Ok::<_, Infallible>(RootEval::value(shoot(m)[1]))
+    })?
+    .x;
+    let end = shoot(slope);
+    Ok((end[2], 1.0 - end[3]))
 }
 
 #[cfg(test)]
@@ -248,17 +263,17 @@ mod tests {
         let alphas: Vec<f64> = (1..=10).map(|i| 0.1 * i as f64).collect();
         let points = sweep(&beam, 512, &alphas).expect("every load step converges");
         assert!(points.iter().all(|p| p.iterations < 60), "{points:?}");
-        let (elastica, _) = elastica_tip(1.0);
+        let (elastica, _) = elastica_tip(1.0).unwrap();
         assert!((points[9].deflection - elastica).abs() < 1e-4 * elastica);
     }
 
     #[test]
     fn elastica_reduces_to_linear_theory_for_small_loads() {
-        let (d, r) = elastica_tip(1e-3);
+        let (d, r) = elastica_tip(1e-3).unwrap();
         assert!((d / (1e-3 / 3.0) - 1.0).abs() < 1e-5, "{d}");
         assert!(r < 1e-6);
         // Known large-deflection value (Bisshopp & Drucker 1945): α = 1 → δ/L ≈ 0.3017.
-        let (d1, _) = elastica_tip(1.0);
+        let (d1, _) = elastica_tip(1.0).unwrap();
         assert!((d1 - 0.3017).abs() < 5e-4, "{d1}");
     }
 }
