@@ -2,6 +2,7 @@
 
 use nalgebra::SVector;
 use rod::Stencil;
+use solver::{LocalEnergy, Problem, Terms};
 use std::collections::HashMap;
 
 use crate::ShellError;
@@ -123,22 +124,74 @@ impl ShellOptions {
     }
 }
 
-enum Term {
-    Membrane(MembraneTriangle),
-    /// A hinge and its coefficients for unit `k_θ,weft`, `k_θ,bias`, `k_θ,warp` (the
-    /// coefficient is linear in the bending parameters).
-    Hinge(Hinge, [f64; 3]),
-    Gravity(GravityNode),
+/// A hinge and its coefficients for unit `k_θ,weft`, `k_θ,bias`, `k_θ,warp` (the coefficient
+/// is linear in the bending parameters). Every evaluation is the hinge's full hyper-dual
+/// evaluation (as before the term container; the cheaper energy and gradient paths of
+/// `rod::hyperdual` are a possible speed-up that changes rounding).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct UnitHinge {
+    hinge: Hinge,
+    unit: [f64; 3],
+}
+
+impl LocalEnergy for UnitHinge {
+    fn n_local(&self) -> usize {
+        12
+    }
+    fn local_energy(&self, q: &[f64]) -> f64 {
+        self.hinge.eval(&SVector::from_column_slice(q)).energy
+    }
+    fn local_eval(&self, q: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        let ev = self.hinge.eval(&SVector::<f64, 12>::from_column_slice(q));
+        grad.copy_from_slice(ev.gradient.as_slice());
+        if let Some(hs) = hess {
+            hs.copy_from_slice(ev.hessian.as_slice());
+        }
+        ev.energy
+    }
+}
+
+/// A membrane triangle on `q`: its 3 nodes' `dim` coordinates each.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Membrane {
+    triangle: MembraneTriangle,
+    dim: usize,
+}
+
+impl LocalEnergy for Membrane {
+    fn n_local(&self) -> usize {
+        3 * self.dim
+    }
+    fn local_energy(&self, q: &[f64]) -> f64 {
+        let mut grad = [0.0; 9];
+        self.local_eval(q, &mut grad[..q.len()], None)
+    }
+    fn local_eval(&self, q: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        self.triangle.eval_into(self.dim, q, grad, hess)
+    }
+}
+
+/// Gravity on one node: `W = m g z`, DOF `z`.
+impl LocalEnergy for GravityNode {
+    fn n_local(&self) -> usize {
+        1
+    }
+    fn local_energy(&self, q: &[f64]) -> f64 {
+        self.weight * q[0]
+    }
+    fn local_eval(&self, q: &[f64], grad: &mut [f64], _: Option<&mut [f64]>) -> f64 {
+        grad[0] = self.weight;
+        self.weight * q[0]
+    }
 }
 
 /// The discrete shell energy `E(x) = Σ membrane + Σ hinges + Σ gravity` (J) over node positions
-/// `x` (m, `dim` DOFs per node, node-major). Implements [`solver::Problem`].
+/// `x` (m, `dim` DOFs per node, node-major), stored in a [`solver::Terms`] in that order.
+/// Implements [`solver::Problem`].
 pub struct Shell {
     dim: usize,
     n_nodes: usize,
-    terms: Vec<Term>,
-    offsets: Vec<usize>,
-    dofs: Vec<usize>,
+    terms: Terms,
 }
 
 impl Shell {
@@ -156,19 +209,12 @@ impl Shell {
             ));
         }
         let n = mesh.rest.len();
-        let mut terms = Vec::new();
-        let mut offsets = vec![0];
-        let mut dofs = Vec::new();
-        let mut push = |term: Term, nodes: &[usize], only_z: bool| {
-            for &v in nodes {
-                if only_z {
-                    dofs.push(dim * v + 2);
-                } else {
-                    dofs.extend((0..dim).map(|j| dim * v + j));
-                }
-            }
-            offsets.push(dofs.len());
-            terms.push(term);
+        let mut terms = Terms::new(dim * n);
+        let node_dofs = |nodes: &[usize]| -> Vec<usize> {
+            nodes
+                .iter()
+                .flat_map(|&v| (0..dim).map(move |j| dim * v + j))
+                .collect()
         };
         for (k, t) in mesh.triangles.iter().enumerate() {
             if t.iter().any(|&v| v >= n) {
@@ -176,11 +222,11 @@ impl Shell {
                     "triangle {k} references a node ≥ {n}"
                 )));
             }
-            let tri =
+            let triangle =
                 MembraneTriangle::new(t.map(|v| mesh.rest[v]), material).ok_or_else(|| {
                     ShellError::InvalidInput(format!("triangle {k} is degenerate or clockwise"))
                 })?;
-            push(Term::Membrane(tri), t, false);
+            terms.push(Membrane { triangle, dim }, &node_dofs(t));
         }
         if let Some(b) = opts.bending {
             for h in mesh.hinges() {
@@ -191,7 +237,7 @@ impl Shell {
                 let unit: [f64; 3] = std::array::from_fn(|j| {
                     Hinge::new(rest, &BendingParams::unit(j)).map_or(0.0, |u| u.coefficient)
                 });
-                push(Term::Hinge(hinge, unit), &h, false);
+                terms.push(UnitHinge { hinge, unit }, &node_dofs(&h));
             }
         }
         if let Some(g) = opts.gravity {
@@ -205,15 +251,13 @@ impl Shell {
                 }
             }
             for (v, m) in mass.iter().enumerate() {
-                push(Term::Gravity(GravityNode { weight: m * g.g }), &[v], true);
+                terms.push(GravityNode { weight: m * g.g }, &[dim * v + 2]);
             }
         }
         Ok(Self {
             dim,
             n_nodes: n,
             terms,
-            offsets,
-            dofs,
         })
     }
 
@@ -229,10 +273,8 @@ impl Shell {
 
     /// Replaces the material of every membrane triangle (the mesh and Dm⁻¹ are kept).
     pub fn set_material(&mut self, material: Material) {
-        for t in &mut self.terms {
-            if let Term::Membrane(m) = t {
-                m.material = material;
-            }
+        for (_, m) in self.terms.iter_mut_of::<Membrane>() {
+            m.triangle.material = material;
         }
     }
 
@@ -240,10 +282,8 @@ impl Shell {
     /// shell built without bending.
     pub fn set_bending(&mut self, bending: BendingParams) {
         let p = bending.to_array();
-        for t in &mut self.terms {
-            if let Term::Hinge(h, unit) = t {
-                h.coefficient = (0..3).map(|j| unit[j] * p[j]).sum();
-            }
+        for (_, h) in self.terms.iter_mut_of::<UnitHinge>() {
+            h.hinge.coefficient = (0..3).map(|j| h.unit[j] * p[j]).sum();
         }
     }
 
@@ -252,17 +292,15 @@ impl Shell {
     /// is linear in the bending parameters, so this is exact.
     pub fn bending_gradient_unit(&self, x: &[f64], j: usize) -> Vec<f64> {
         let mut g = vec![0.0; x.len()];
-        for (k, t) in self.terms.iter().enumerate() {
-            if let Term::Hinge(_, unit) = t {
-                let dofs = &self.dofs[self.offsets[k]..self.offsets[k + 1]];
-                let q = SVector::<f64, 12>::from_fn(|l, _| x[dofs[l]]);
-                let ev = Hinge {
-                    coefficient: unit[j],
-                }
-                .eval(&q);
-                for (l, &d) in dofs.iter().enumerate() {
-                    g[d] += ev.gradient[l];
-                }
+        for (k, h) in self.terms.iter_of::<UnitHinge>() {
+            let dofs = self.terms.dofs(k);
+            let q = SVector::<f64, 12>::from_fn(|l, _| x[dofs[l]]);
+            let ev = Hinge {
+                coefficient: h.unit[j],
+            }
+            .eval(&q);
+            for (l, &d) in dofs.iter().enumerate() {
+                g[d] += ev.gradient[l];
             }
         }
         g
@@ -274,19 +312,15 @@ impl Shell {
     pub fn membrane_gradient_with(&self, x: &[f64], material: Material) -> Vec<f64> {
         let mut g = vec![0.0; x.len()];
         let mut local = [0.0; 9];
-        let mut q = [0.0; 9];
-        for (k, t) in self.terms.iter().enumerate() {
-            if let Term::Membrane(tri) = t {
-                let tri = MembraneTriangle { material, ..*tri };
-                let dofs = &self.dofs[self.offsets[k]..self.offsets[k + 1]];
-                let m = dofs.len();
-                for (l, &d) in dofs.iter().enumerate() {
-                    q[l] = x[d];
-                }
-                tri.eval_into(self.dim, &q[..m], &mut local[..m], None);
-                for (l, &d) in dofs.iter().enumerate() {
-                    g[d] += local[l];
-                }
+        for (k, m) in self.terms.iter_of::<Membrane>() {
+            let tri = MembraneTriangle {
+                material,
+                ..m.triangle
+            };
+            let q = self.terms.gather(k, x);
+            tri.eval_into(self.dim, &q, &mut local[..q.len()], None);
+            for (l, &d) in self.terms.dofs(k).iter().enumerate() {
+                g[d] += local[l];
             }
         }
         g
@@ -303,42 +337,24 @@ impl Shell {
     }
 }
 
-impl solver::Problem for Shell {
+impl Problem for Shell {
     fn n_dofs(&self) -> usize {
-        self.dim * self.n_nodes
+        self.terms.n_dofs()
     }
 
     fn n_stencils(&self) -> usize {
-        self.terms.len()
+        self.terms.n_stencils()
     }
 
     fn stencil_dofs(&self, k: usize) -> &[usize] {
-        &self.dofs[self.offsets[k]..self.offsets[k + 1]]
+        self.terms.stencil_dofs(k)
     }
 
     fn eval_stencil(&self, k: usize, x: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
-        let dofs = self.stencil_dofs(k);
-        match &self.terms[k] {
-            Term::Membrane(t) => {
-                let mut local = [0.0; 9];
-                for (l, &d) in dofs.iter().enumerate() {
-                    local[l] = x[d];
-                }
-                t.eval_into(self.dim, &local[..dofs.len()], grad, hess)
-            }
-            Term::Hinge(h, _) => {
-                let q = SVector::<f64, 12>::from_fn(|l, _| x[dofs[l]]);
-                let ev = h.eval(&q);
-                grad.copy_from_slice(ev.gradient.as_slice());
-                if let Some(hs) = hess {
-                    hs.copy_from_slice(ev.hessian.as_slice());
-                }
-                ev.energy
-            }
-            Term::Gravity(g) => {
-                grad[0] = g.weight;
-                g.weight * x[dofs[0]]
-            }
-        }
+        self.terms.eval_stencil(k, x, grad, hess)
+    }
+
+    fn stencil_energy(&self, k: usize, x: &[f64]) -> f64 {
+        self.terms.stencil_energy(k, x)
     }
 }

@@ -8,6 +8,7 @@
 //! | [`assembly`] | the [`Problem`] trait; [`Assembler`]: fixed-pattern, parallel, deterministic sparse assembly of energy, gradient and (optionally SPD-projected) Hessian |
 //! | [`newton`] | [`minimize`] / [`NewtonSolver`]: Newton with backtracking line search, Dirichlet DOFs, adaptive diagonal regularization, sparse Cholesky with reused symbolic analysis or preconditioned CG ([`LinearSolver`]); optional fixed-iteration mode (linearized steps) |
 //! | [`pcg`] | [`Pcg`]: preconditioned conjugate gradients (Jacobi or IC(0)) on the assembled lower-triangle Hessian, deterministic parallel matrix–vector products |
+//! | [`terms`] | [`Terms`]: the one term container (a [`Problem`]): heterogeneous terms ([`LocalEnergy`], [`RodTerm`] for any `rod::Stencil<N>`) with DOF indices and optional affine offsets |
 //! | [`constrained`] | [`minimize_constrained`] / [`ConstrainedNewtonSolver`]: Newton under linear equality constraints `Cx = d` via the KKT system and sparse LU |
 //! | [`roots`] | [`find_root`]: safeguarded 1-D root finding in a sign-change bracket (Newton with a derivative, bisection without) |
 //! | [`lm`] | [`bounded_lm`]: bounded Levenberg–Marquardt for small least-squares fits (scaled parameters, active set, extra constraints) |
@@ -77,6 +78,7 @@ pub mod newton;
 mod pattern;
 pub mod pcg;
 pub mod roots;
+pub mod terms;
 
 pub use assembly::{
     Assembled, Assembler, Problem, eval_rod_stencil, eval_rod_stencil_energy_offset,
@@ -94,3 +96,4 @@ pub use newton::{
 };
 pub use pcg::{Pcg, PcgFailure, PcgReport, PcgSettings, Preconditioner};
 pub use roots::{Bracket, Root, RootError, RootEval, RootReport, RootSettings, find_root};
+pub use terms::{LocalEnergy, LocalVector, MAX_TERM_DOFS, RodTerm, Terms};
