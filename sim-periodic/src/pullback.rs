@@ -161,7 +161,9 @@ mod tests {
     }
 
     /// The flat form is the general form at κ = 0 (up to rounding), and the bent pullback
-    /// tends to it as κ → 0.
+    /// tends to it as κ → 0: at κ = 1e-5 /m the roll moves a mm-sized tile by O(κ |X|²)
+    /// ≈ 1e-10 m and unrolling rounds at ≈ 1e-16 / κ ≈ 1e-11 m, both well below 1e-9 m
+    /// (displacements here are ≈ 1e-4 m).
     #[test]
     fn flat_and_bent_agree_at_zero_curvature() {
         let tile = tile();
@@ -169,18 +171,17 @@ mod tests {
         let flat = Coarse::in_plane(Matrix2::new(1.1, 0.05, 0.05, 0.95));
         let a = pullback(&tile, &flat, &dofs).unwrap();
         let b = rolled_pullback(&tile, &flat, &dofs, None).unwrap();
-        let c = pullback(&tile, &flat.bent(1, 1e-6), &dofs).unwrap();
+        let c = pullback(&tile, &flat.bent(1, 1e-5), &dofs).unwrap();
         for ((a, b), c) in a.iter().zip(&b).zip(&c) {
             for k in 0..4 {
                 assert!((a[k] - b[k]).abs() < 1e-17, "{a:?} vs {b:?}");
-                assert!((a[k] - c[k]).abs() < 1e-12, "{a:?} vs {c:?}");
+                assert!((a[k] - c[k]).abs() < 1e-9, "{a:?} vs {c:?}");
             }
         }
     }
 
-    /// The bent pullback inverts the roll: a tile following the bent coarse map exactly
-    /// (fluctuation R⁻¹-free, ũ = 0) has ΔQ = 0; a pure in-plane fluctuation is pulled back
-    /// through F₂⁻¹ at the neutral surface.
+    /// `unroll` inverts the roll of [`Coarse::map`] under a sheared, stretched F₂, along x
+    /// and y, for both signs of κ.
     #[test]
     fn unroll_inverts_the_roll() {
         let f = Matrix2::new(1.1, 0.05, 0.05, 0.95);

@@ -47,7 +47,10 @@ fn assert_parse_error(text: &str, line: usize, needle: &str) {
             };
             assert_eq!(*l, line, "{e}");
             assert!(message.contains(needle), "{message:?} lacks {needle:?}");
-            assert!(e.to_string().starts_with(&format!("clamps.toml:{line}:")), "{e}");
+            assert!(
+                e.to_string().starts_with(&format!("clamps.toml:{line}:")),
+                "{e}"
+            );
         }
         other => panic!("expected a parse error at line {line}, got {other:?}"),
     }
@@ -77,7 +80,10 @@ fn side_and_column_clamps_select_their_nodes_and_drive() {
     }
     for (&n, b) in right.iter().zip(&before) {
         let d = position(&run, n) - b;
-        assert!((d.x - 2e-5).abs() < 1e-15 && d.y == 0.0 && d.z == 0.0, "{d}");
+        assert!(
+            (d.x - 2e-5).abs() < 1e-15 && d.y == 0.0 && d.z == 0.0,
+            "{d}"
+        );
     }
 }
 
@@ -127,9 +133,5 @@ fn bad_clamp_entries_name_their_line() {
         "clamp column 4 is out of range: the swatch has 4 columns",
     );
     // A column of the wrong type: at the value.
-    assert_parse_error(
-        &SIDES.replace("column = 2", "column = -1"),
-        20,
-        "",
-    );
+    assert_parse_error(&SIDES.replace("column = 2", "column = -1"), 20, "");
 }
