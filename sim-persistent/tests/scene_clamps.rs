@@ -135,3 +135,17 @@ fn bad_clamp_entries_name_their_line() {
     // A column of the wrong type: at the value.
     assert_parse_error(&SIDES.replace("column = 2", "column = -1"), 20, "");
 }
+
+/// The shipped side-stretch scene clamps the first and last columns of its 8 × 6 rib.
+#[test]
+fn shipped_side_stretch_scene_is_valid() {
+    let scene = parse(include_str!("../scenes/rib-side-stretch.toml")).unwrap();
+    let run = scene.build().unwrap();
+    let grid = Grid::Knit {
+        width: 8,
+        height: 6,
+    };
+    assert_eq!(run.clamps[0].0, ClampSet::Left.nodes(grid).unwrap());
+    assert_eq!(run.clamps[1].0, ClampSet::Right.nodes(grid).unwrap());
+    assert_eq!(run.clamps[1].1.x, 0.1);
+}
