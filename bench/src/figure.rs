@@ -183,3 +183,23 @@ pub fn percent(relative: f64) -> String {
         format!("{p:.2e} %")
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One value per type and cache: the same `Arc` on every `get`, separate per type, and a
+    /// fresh cache (a new run) starts empty.
+    #[test]
+    fn figure_cache_keeps_one_value_per_type() {
+        let cache = FigureCache::default();
+        let a = cache.get::<Mutex<Vec<usize>>>();
+        a.lock().unwrap().push(7);
+        assert!(Arc::ptr_eq(&a, &cache.get::<Mutex<Vec<usize>>>()));
+        assert_eq!(*cache.get::<Mutex<Vec<usize>>>().lock().unwrap(), vec![7]);
+        assert!(cache.get::<Mutex<Option<f64>>>().lock().unwrap().is_none());
+        let other = FigureCache::default();
+        assert!(other.get::<Mutex<Vec<usize>>>().lock().unwrap().is_empty());
+        assert_eq!(format!("{cache:?}"), "FigureCache(2 entries)");
+    }
+}
