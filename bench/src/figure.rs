@@ -6,9 +6,10 @@
 //! returns the plotted data; the runner ([`crate::report`]) writes the CSV,
 //! the manifest and the README index.
 
+use std::any::Any;
 use std::borrow::Cow;
 use std::path::PathBuf;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
@@ -42,6 +43,10 @@ pub struct FigureContext {
     pub quick: bool,
     /// Folder to draw the plot into (already exists).
     pub out_dir: PathBuf,
+    /// Data shared by the figures of one run (e.g. generated databases), owned by the
+    /// runner: one cache per [`crate::run_figures`] call, a fresh one per
+    /// [`FigureContext::new`].
+    pub cache: Arc<FigureCache>,
     multi: MultiProgress,
     bars: Mutex<Vec<ProgressBar>>,
 }
@@ -50,7 +55,7 @@ impl FigureContext {
     /// A context with progress output hidden (for tests and library use).
     pub fn new(name: &'static str, quick: bool, out_dir: impl Into<PathBuf>) -> Self {
         let multi = MultiProgress::with_draw_target(ProgressDrawTarget::hidden());
-        Self::with_progress(name, quick, out_dir.into(), multi)
+        Self::with_progress(name, quick, out_dir.into(), multi, Arc::default())
     }
 
     pub(crate) fn with_progress(
@@ -58,11 +63,13 @@ impl FigureContext {
         quick: bool,
         out_dir: PathBuf,
         multi: MultiProgress,
+        cache: Arc<FigureCache>,
     ) -> Self {
         Self {
             name,
             quick,
             out_dir,
+            cache,
             multi,
             bars: Mutex::new(Vec::new()),
         }
@@ -90,6 +97,34 @@ impl FigureContext {
             bar.finish_and_clear();
             self.multi.remove(&bar);
         }
+    }
+}
+
+/// Values shared between the figures of one run, one per type: a figure asks for its
+/// cache type with [`FigureCache::get`] and memoizes inside it (e.g.
+/// [`crate::figures::deform_real_db::RealCache`]).
+#[derive(Default)]
+pub struct FigureCache {
+    entries: Mutex<Vec<Arc<dyn Any + Send + Sync>>>,
+}
+
+impl FigureCache {
+    /// The run's value of type `T`, created with `T::default()` on first use.
+    pub fn get<T: Default + Send + Sync + 'static>(&self) -> Arc<T> {
+        let mut entries = self.entries.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(t) = entries.iter().find_map(|e| e.clone().downcast::<T>().ok()) {
+            return t;
+        }
+        let t = Arc::new(T::default());
+        entries.push(t.clone());
+        t
+    }
+}
+
+impl std::fmt::Debug for FigureCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = self.entries.lock().map_or(0, |e| e.len());
+        write!(f, "FigureCache({n} entries)")
     }
 }
 
@@ -146,5 +181,25 @@ pub fn percent(relative: f64) -> String {
         format!("{p:.3} %")
     } else {
         format!("{p:.2e} %")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One value per type and cache: the same `Arc` on every `get`, separate per type, and a
+    /// fresh cache (a new run) starts empty.
+    #[test]
+    fn figure_cache_keeps_one_value_per_type() {
+        let cache = FigureCache::default();
+        let a = cache.get::<Mutex<Vec<usize>>>();
+        a.lock().unwrap().push(7);
+        assert!(Arc::ptr_eq(&a, &cache.get::<Mutex<Vec<usize>>>()));
+        assert_eq!(*cache.get::<Mutex<Vec<usize>>>().lock().unwrap(), vec![7]);
+        assert!(cache.get::<Mutex<Option<f64>>>().lock().unwrap().is_none());
+        let other = FigureCache::default();
+        assert!(other.get::<Mutex<Vec<usize>>>().lock().unwrap().is_empty());
+        assert_eq!(format!("{cache:?}"), "FigureCache(2 entries)");
     }
 }

@@ -121,10 +121,12 @@ pub(crate) fn run_specs(specs: &[FigureSpec], opts: &RunOptions) -> anyhow::Resu
             .progress_chars("=> "),
     );
 
+    // Shared by the figures of this run (e.g. databases several figures use).
+    let cache = std::sync::Arc::new(crate::figure::FigureCache::default());
     let mut runs = Vec::new();
     for spec in selected {
         overall.set_message(spec.name);
-        let run = run_one(spec, quick, opts, &git_revision, &multi);
+        let run = run_one(spec, quick, opts, &git_revision, &multi, &cache);
         let line = match &run.error {
             None => format!(
                 "done   {} ({:.1} s)",
@@ -204,6 +206,7 @@ fn run_one(
     opts: &RunOptions,
     git_revision: &str,
     multi: &MultiProgress,
+    cache: &std::sync::Arc<crate::figure::FigureCache>,
 ) -> FigureRun {
     let mut run = FigureRun {
         name: spec.name,
@@ -222,7 +225,13 @@ fn run_one(
         }
         fs::create_dir_all(&out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
 
-        let ctx = FigureContext::with_progress(spec.name, quick, out_dir.clone(), multi.clone());
+        let ctx = FigureContext::with_progress(
+            spec.name,
+            quick,
+            out_dir.clone(),
+            multi.clone(),
+            cache.clone(),
+        );
         let start = Instant::now();
         let output = (spec.run)(&ctx);
         run.wall_time = start.elapsed();

@@ -6,7 +6,7 @@
 //!
 //! Writes one file per frame and format (`yarns_000001.obj` ...), with `--png` a rendered image
 //! of the yarns as tubes of the pattern's yarn radius per frame (`frame_0001.png` ...,
-//! [`deform_runtime::render`], view fitted to each frame), and `manifest.json` with the
+//! [`yarn_output::render`], view fitted to each frame), and `manifest.json` with the
 //! configuration, the precompute counters and per-frame statistics and timings.
 
 use std::path::PathBuf;

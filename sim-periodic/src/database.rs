@@ -38,7 +38,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Instant;
 
-use nalgebra::{Matrix2, Vector3};
+use nalgebra::Matrix2;
 use rayon::prelude::*;
 use solver::StepError;
 
@@ -298,31 +298,13 @@ fn relax_period_once(
 }
 
 /// The material-space displacement rows `(Δx, Δy, Δz, Δθ)` of the equilibrium DOFs `dofs`
-/// under the in-plane `coarse` map (seed 004 Eq. 18), per vertex.
+/// under the `coarse` map (seed 004 Eq. 18), per vertex: [`crate::pullback::pullback`].
 pub fn material_displacements(
     tile: &Tile,
     coarse: &Coarse,
     dofs: &[f64],
 ) -> Result<Vec<[f64; 4]>, PeriodicError> {
-    if coarse.curvature.is_some_and(|c| c.kappa != 0.0) {
-        return Err(PeriodicError::Invalid(
-            "the pullback (Eq. 18) is implemented for in-plane deformations only".into(),
-        ));
-    }
-    let topology = tile.topology()?;
-    let n = tile.n_vertices();
-    let inverse = coarse
-        .f
-        .try_inverse()
-        .ok_or_else(|| PeriodicError::Invalid(format!("coarse map {} is singular", coarse.f)))?;
-    Ok((0..n)
-        .map(|v| {
-            let u = Vector3::new(dofs[3 * v], dofs[3 * v + 1], dofs[3 * v + 2]);
-            let plane = inverse * u.xy();
-            let e = topology.outgoing(v);
-            [plane.x, plane.y, u.z, dofs[3 * n + e] - tile.twists[v]]
-        })
-        .collect())
+    crate::pullback::pullback(tile, coarse, dofs)
 }
 
 /// Generates the database of the (already relaxed, see [`relax_reference`]) `tile` over

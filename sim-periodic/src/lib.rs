@@ -18,19 +18,23 @@
 //! | [`config`] | TOML configuration of the `sim-periodic` command line |
 //! | [`curves`] | uniaxial curves {s, c, σ_s} along weft / bias / warp with a root-find for zero orthogonal stress; bending curves {κ, Ψ, dΨ/dκ} |
 //! | [`database`] | displacement database generation: relaxed reference, continuation over the strain grid, pullback (Eq. 18), resumable checkpoints |
+//! | [`pullback`] | material-space pullback of an equilibrium, seed 004 Eq. 18, for flat and bent (rolled) tiles |
+//! | [`bending_database`] | bending-direction databases per curvature (seed 004 Appendix C) from an in-plane database, restriction to nested grids |
 //! | [`periodic`] | the tile energy under a coarse deformation, constraints, equilibrium, stress |
 //! | [`patterns`] | procedural pattern library: tile builder from yarn polylines, knit and weave guesses, relaxation |
 //!
 //! Bending is single curvature along either tile axis (the tile rolled onto a cylinder,
-//! [`coarse::Curvature`]); databases are in-plane (sx, sa, sy) only.
+//! [`coarse::Curvature`]); displacement databases are in-plane (sx, sa, sy), with bending
+//! databases per curvature beside them ([`bending_database`]).
 
+pub mod bending_database;
 pub mod coarse;
 pub mod config;
 pub mod curves;
 pub mod database;
 pub mod patterns;
 pub mod periodic;
-
+pub mod pullback;
 /// The pattern data live in the leaf crate `yarn-pattern` (shared with `deform-runtime`);
 /// they are re-exported here under their historical paths.
 pub use yarn_pattern::{madypg, pyp, tile};

@@ -16,6 +16,7 @@
 //! | [`forces`] | gravity, stretch, bending with jamming (Eq. 1), stitch wrapping (Eq. 2, Eqs. 7–13), stitch-contact length (Eq. 6), compression estimation at contact nodes (Eqs. 3–4, closed form and exact NNLS), sliding friction with anchored springs and the Coulomb bound μλ (Eq. 5) with an optional return mapping, contact between adjacent loops (off by default), a floor on segments' material length (ours, on by default), weave crossing shear with jamming, sphere and plane obstacles, inertia and Rayleigh damping forms; the summed [`forces::Potential`] | seed 000 §4, ref. 6 |
 //! | [`measure`] | edge curl and side-to-side width of knit swatches | seed 000 §3.1, §5.2.2, Figs. 5, 7 |
 //! | [`rest_shape`] | rest-shape bending compensation: repeat detection, relaxed characteristic rectangle, loop shapes applied to the whole chart | seed 000 §4.1, Fig. 6 |
+//! | [`experiment`] | swatch experiments: settle, clamp sets (rows, sides, columns), rib stretch, load cycles, drops onto a sphere with sticking contacts, drape measures | seed 000 §4.5, §5.2 |
 //! | [`scene`] | TOML scene files (knit or woven pattern, Table 1 preset + overrides, damping, force terms, crossing shear, obstacles, clamps with drivers, outputs); the `sim-persistent run` binary | issue 6 |
 //! | [`output`] | smooth rendering curves (per-node plane normals fitted by SVD, ±R yarn offsets, centripetal Catmull-Rom); OBJ, PLY, `.bcc` and PNG frame writers | seed 000 §3.2 |
 //! | [`integrator`] | backward Euler as one Newton minimization per step (step halving on failure, optional friction return mapping) or linearized (one Newton step), sparse Cholesky or preconditioned CG, Rayleigh damping, pinned and driven nodes, obstacles, static equilibrium for quasi-static loading, clamp forces, per-term energies | seed 000 §4, §5 |
@@ -54,6 +55,7 @@
 //! stockinette's side curl (to −2.1/−0.7), so it is off by default.
 
 pub mod chart;
+pub mod experiment;
 pub mod forces;
 pub mod integrator;
 pub mod layout;

@@ -55,10 +55,14 @@
 //! radius = 0.01        # m
 //! stiffness = 2e4      # N/m; optional, default k_s/R of the yarn
 //!
-//! [[clamp]]            # pinned row-boundary nodes, optionally driven at a constant velocity
-//! edge = "bind-off"    # "cast-on" (boundary 0) or "bind-off" (last boundary)
+//! [[clamp]]            # any number; pinned nodes (crate::experiment::clamps::ClampSet),
+//!                      # optionally driven at a constant velocity; exactly one of
+//! edge = "bind-off"    # "cast-on" (row boundary 0), "bind-off" (last row boundary),
+//!                      # "left" / "right" (every node of the first / last stitch column)
+//! # column = 3         # … or every node of stitch column 3 (0-based, < width)
 //! velocity = [0.0, 0.01, 0.0]   # m/s; default zero (a fixed clamp)
-//!                      # (weaves: "cast-on" is weft 0, "bind-off" the last weft)
+//!                      # (weaves: "cast-on" is weft 0, "bind-off" the last weft, "left" /
+//!                      # "right" warp 0 / the last warp, `column = i` warp i)
 //!
 //! [output]             # all optional (crate::output::OutputSpec)
 //! formats = ["obj", "ply", "bcc", "png"]   # also "nodes"; default ["obj"]
@@ -71,7 +75,9 @@
 //! ```
 //!
 //! Unknown keys are errors (serde `deny_unknown_fields`); every parse error names the line and
-//! column of the offending text ([`SceneError::Parse`]). `[pattern]` and `[output]` are
+//! column of the offending text ([`SceneError::Parse`]). A `[[clamp]]` with an unknown `edge`
+//! is reported at the value, one with both or neither of `edge` and `column`, or a column
+//! beyond the pattern, at the entry. `[pattern]` and `[output]` are
 //! checked while parsing too: a bad `[output]` value is reported at the value, an
 //! inconsistent `[pattern]` (unknown builder, missing size, a size key that does not apply,
 //! a malformed chart) at the `[pattern]` header.
@@ -84,12 +90,13 @@
 //! a `v` line per contact node and an `l` polyline per yarn through its nodes in yarn order.
 
 use crate::chart::{Chart, ChartError};
+use crate::experiment::clamps::{ClampSet, Grid};
 use crate::forces::ForceSet;
 use crate::integrator::{SimError, Simulator, StepSettings};
 use crate::layout::{Layout, LayoutError, LayoutParams};
 use crate::output::{OutputError, OutputSpec};
 use crate::params::YarnParams;
-use crate::topology::{Topology, knit_boundary_nodes};
+use crate::topology::Topology;
 use crate::weave::WeavePattern;
 use rod::geometry::V3;
 use serde::Deserialize;
@@ -388,15 +395,55 @@ impl Default for ForcesSpec {
     }
 }
 
-/// `[[clamp]]`: the nodes of a row boundary, pinned and moved at a constant velocity.
+/// `[[clamp]]`: a clamp set ([`ClampSet`]: a row boundary, a side or a column), pinned and
+/// moved at a constant velocity.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ClampSpec {
-    /// `cast-on` or `bind-off`.
-    pub edge: String,
+    /// `cast-on`, `bind-off`, `left` or `right` ([`ClampSet::from_edge`]; checked while
+    /// parsing); exactly one of `edge` and `column`.
+    #[serde(default, deserialize_with = "de_edge")]
+    pub edge: Option<String>,
+    /// A stitch column (knits) or warp (weaves), 0-based.
+    pub column: Option<usize>,
     /// Velocity (m/s, finite); default zero.
     #[serde(default, deserialize_with = "de_velocity")]
     pub velocity: [f64; 3],
+}
+
+impl ClampSpec {
+    /// The clamp set of the entry, or what is wrong with it.
+    pub fn set(&self) -> Result<ClampSet, String> {
+        match (&self.edge, self.column) {
+            (Some(edge), None) => ClampSet::from_edge(edge)
+                .ok_or_else(|| format!("[[clamp]] unknown edge \"{edge}\" ({CLAMP_EDGES})")),
+            (None, Some(c)) => Ok(ClampSet::Column(c)),
+            _ => Err("[[clamp]] needs exactly one of `edge` and `column`".into()),
+        }
+    }
+}
+
+/// The `edge` names of `[[clamp]]`.
+const CLAMP_EDGES: &str = "cast-on, bind-off, left, right";
+
+impl ClampSpec {
+    /// The nodes the entry clamps on a swatch with node grid `grid`, or what is wrong.
+    pub fn clamp_nodes(&self, grid: Grid) -> Result<Vec<usize>, String> {
+        self.set()?
+            .nodes(grid)
+            .map_err(|e| format!("[[clamp]] {e}"))
+    }
+}
+
+/// A clamp `edge` name ([`ClampSet::from_edge`]).
+fn de_edge<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<String>, D::Error> {
+    let edge = String::deserialize(d)?;
+    if ClampSet::from_edge(&edge).is_none() {
+        return Err(serde::de::Error::custom(format!(
+            "unknown clamp edge \"{edge}\" ({CLAMP_EDGES})"
+        )));
+    }
+    Ok(Some(edge))
 }
 
 /// A clamp velocity: three finite numbers (m/s).
@@ -544,9 +591,9 @@ pub struct Scene {
     /// Force terms.
     #[serde(default)]
     pub forces: ForcesSpec,
-    /// Clamps.
+    /// Clamps with their place in the file (checked by [`Scene::parse`]).
     #[serde(default)]
-    pub clamp: Vec<ClampSpec>,
+    pub clamp: Vec<toml::Spanned<ClampSpec>>,
     /// Crossing-shear parameters (weaves).
     #[serde(default)]
     pub crossing_shear: SceneCrossingShear,
@@ -587,15 +634,24 @@ impl Scene {
     /// Parses TOML `text`; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
         let scene = Self::parse_fields(text, path)?;
+        let located = |span: std::ops::Range<usize>, message: String| {
+            let (line, column) = line_column(text, span.start);
+            SceneError::Parse {
+                path: path.to_path_buf(),
+                line,
+                column,
+                message,
+            }
+        };
         for o in &scene.obstacle {
             if let Err(message) = o.get_ref().obstacle() {
-                let (line, column) = line_column(text, o.span().start);
-                return Err(SceneError::Parse {
-                    path: path.to_path_buf(),
-                    line,
-                    column,
-                    message,
-                });
+                return Err(located(o.span(), message));
+            }
+        }
+        let grid = Grid::from(&scene.fabric()?);
+        for c in &scene.clamp {
+            if let Err(message) = c.get_ref().clamp_nodes(grid) {
+                return Err(located(c.span(), message));
             }
         }
         if scene.output_every.is_some() && scene.output.every.is_some() {
@@ -749,26 +805,10 @@ impl Scene {
             .collect::<Result<Vec<_>, _>>()?;
         sim.add_obstacles(&obstacles)?;
         let mut clamps = Vec::new();
+        let grid = Grid::from(&fabric);
         for c in &self.clamp {
-            let last = c.edge.as_str() == "bind-off";
-            if !last && c.edge != "cast-on" {
-                return Err(SceneError::Invalid(format!(
-                    "[[clamp]] unknown edge \"{}\" (cast-on, bind-off)",
-                    c.edge
-                )));
-            }
-            let nodes: Vec<usize> = match &fabric {
-                Fabric::Knit(chart) => {
-                    let (w, h) = (chart.width(), chart.height());
-                    let b = if last { h } else { 0 };
-                    knit_boundary_nodes(w, b)
-                }
-                // Node j · warps + i is the crossing of warp i and weft j.
-                Fabric::Weave { warps, wefts, .. } => {
-                    let j = if last { wefts - 1 } else { 0 };
-                    (0..*warps).map(|i| j * warps + i).collect()
-                }
-            };
+            let c = c.get_ref();
+            let nodes = c.clamp_nodes(grid).map_err(SceneError::Invalid)?;
             sim.pin_nodes(&nodes)?;
             clamps.push((nodes, V3::from(c.velocity)));
         }

@@ -134,8 +134,8 @@ fn unknown_key_names_line_and_column() {
 
 /// A value of the wrong type and malformed TOML are located too; an inconsistent `[pattern]`
 /// (unknown builder, missing size, malformed chart) is a parse error at the `[pattern]`
-/// header (line 6); a non-finite clamp velocity is a parse error at its line; an unknown
-/// clamp edge is an `Invalid` error when building.
+/// header (line 6); a non-finite clamp velocity and an unknown clamp edge are parse errors
+/// at their line.
 #[test]
 fn bad_values_are_errors() {
     let text = SCENE.replace("width = 4", "width = \"four\"");
@@ -171,11 +171,9 @@ fn bad_values_are_errors() {
             .expect("the scene has a clamp velocity");
         assert_parse_error(&text, line, "finite");
     }
+    // An unknown clamp edge is a parse error at its value (line 24).
     let text = SCENE.replace("edge = \"cast-on\"", "edge = \"side\"");
-    assert!(matches!(
-        parse(&text).unwrap().build(),
-        Err(SceneError::Invalid(_))
-    ));
+    assert_parse_error(&text, 24, "unknown clamp edge \"side\"");
 }
 
 /// Asserts that `text` fails to parse at `line` with a message containing `needle`.

@@ -74,7 +74,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             KAPPA_MAX,
         ]
     };
-    let reference = real::reference()?;
+    let reference = real::reference(ctx)?;
     let tile = &reference.tile;
     let r = tile.radius;
     let real_bending = bending(ctx, n, &kappas)?;

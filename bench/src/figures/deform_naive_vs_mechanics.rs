@@ -87,11 +87,11 @@ fn tubes(d: &Deformer<f64>, options: &RenderOptions) -> anyhow::Result<Rendering
 
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let n = if ctx.quick { 3 } else { 5 };
-    let reference = real::reference()?;
+    let reference = real::reference(ctx)?;
     let tile = &reference.tile;
     let r = tile.radius;
     let progress = ctx.progress((n * n * n) as u64, "database samples");
-    let db = real::database(n, &|| progress.inc(1))?;
+    let db = real::database(ctx, n, &|| progress.inc(1))?;
     progress.finish_and_clear();
 
     let cells = 4.0;

@@ -1,6 +1,6 @@
 //! Shared inputs of the `deform-*` figures that use *real* displacement databases: the
 //! stockinette tile relaxed at zero strain and databases generated from it by
-//! `sim_periodic::database::generate`, memoized per process (so a full
+//! `sim_periodic::database::generate`, memoized in the run's [`RealCache`] (so a full
 //! `reproduce-figures` run generates each density once), plus the test sheet and the error
 //! measure the studies share.
 //!
@@ -20,6 +20,8 @@ use sim_periodic::database::{
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel};
 use sim_periodic::pyp::read_pyp;
 use sim_periodic::tile::Tile;
+
+use crate::FigureContext;
 
 /// The pattern, relative to the workspace root.
 pub const PATTERN: &str = "tests/data/patterns/stockinette.pyp";
@@ -63,12 +65,22 @@ impl RealDatabase {
     }
 }
 
-static REFERENCE: Mutex<Option<Arc<Reference>>> = Mutex::new(None);
-static DATABASES: Mutex<Vec<Arc<RealDatabase>>> = Mutex::new(Vec::new());
+/// The real data of one figure run, in [`FigureContext::cache`]: the relaxed reference tile,
+/// the in-plane databases by density and the bending databases
+/// ([`super::deform_bending_db::bending`]), each computed on first use.
+#[derive(Debug, Default)]
+pub struct RealCache {
+    reference: Mutex<Option<Arc<Reference>>>,
+    databases: Mutex<Vec<Arc<RealDatabase>>>,
+    /// Bending databases by (density, curvatures).
+    pub(super) bending: Mutex<Vec<Arc<super::deform_bending_db::RealBending>>>,
+}
 
-/// The relaxed stockinette tile (relaxed once per process).
-pub fn reference() -> anyhow::Result<Arc<Reference>> {
-    let mut slot = REFERENCE
+/// The relaxed stockinette tile (relaxed once per run).
+pub fn reference(ctx: &FigureContext) -> anyhow::Result<Arc<Reference>> {
+    let cache = ctx.cache.get::<RealCache>();
+    let mut slot = cache
+        .reference
         .lock()
         .map_err(|_| anyhow!("reference tile lock poisoned"))?;
     if let Some(r) = slot.as_ref() {
@@ -102,26 +114,32 @@ pub fn axes(n: usize) -> [Vec<f64>; 3] {
 /// The `n³` databases of every density in `densities`, with one progress bar of `ctx` over
 /// all their samples.
 pub fn databases(
-    ctx: &crate::FigureContext,
+    ctx: &FigureContext,
     densities: &[usize],
 ) -> anyhow::Result<Vec<Arc<RealDatabase>>> {
     let total: usize = densities.iter().map(|n| n * n * n).sum();
     let progress = ctx.progress(total as u64, "database samples");
     let dbs = densities
         .iter()
-        .map(|&n| database(n, &|| progress.inc(1)))
+        .map(|&n| database(ctx, n, &|| progress.inc(1)))
         .collect::<anyhow::Result<Vec<_>>>()?;
     progress.finish_and_clear();
     Ok(dbs)
 }
 
-/// The real `n³` database of the relaxed tile, generated on first use in this process
+/// The real `n³` database of the relaxed tile, generated on first use in this run
 /// (`progress` is called after every solved sample) and reused afterwards.
-pub fn database(n: usize, progress: &(dyn Fn() + Sync)) -> anyhow::Result<Arc<RealDatabase>> {
-    let reference = reference()?;
+pub fn database(
+    ctx: &FigureContext,
+    n: usize,
+    progress: &(dyn Fn() + Sync),
+) -> anyhow::Result<Arc<RealDatabase>> {
+    let reference = reference(ctx)?;
+    let run_cache = ctx.cache.get::<RealCache>();
     // Held during generation: figures run one after another, and a second caller for the
     // same density should wait rather than generate it again.
-    let mut cache = DATABASES
+    let mut cache = run_cache
+        .databases
         .lock()
         .map_err(|_| anyhow!("database cache lock poisoned"))?;
     if let Some(db) = cache.iter().find(|d| d.n == n) {

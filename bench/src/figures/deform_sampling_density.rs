@@ -24,7 +24,7 @@ pub fn spec() -> FigureSpec {
 
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let densities: &[usize] = if ctx.quick { &[2, 3] } else { &[5, 9, 15] };
-    let reference = real::reference()?;
+    let reference = real::reference(ctx)?;
     let tile = &reference.tile;
     let r = tile.radius;
     let dbs = real::databases(ctx, densities)?;

@@ -135,7 +135,7 @@ fn variant<'a, T: Real>(
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let densities: &[usize] = if ctx.quick { &[2, 3] } else { &[3, 5, 9] };
     let kappas = [0.0, KAPPA_MAX];
-    let reference = real::reference()?;
+    let reference = real::reference(ctx)?;
     let tile = &reference.tile;
     let densest_n = *densities.last().expect("at least one density");
     let real_bending = bending(ctx, densest_n, &kappas)?;

@@ -8,8 +8,9 @@ use sim_persistent::chart::Chart;
 use sim_persistent::measure::{course_width, edge_curl};
 
 use crate::plot::save_images;
-use crate::studies::persistent::{SwatchSettings, positions, render, settled};
+use crate::studies::persistent::render;
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
+use sim_persistent::experiment::{SwatchSettings, positions, settled};
 
 /// Registry entry.
 pub fn spec() -> FigureSpec {
@@ -120,7 +121,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         config: serde_json::json!({
             "patterns": swatches.iter().map(|(n, c)| format!("{n} {}x{}", c.width(), c.height())).collect::<Vec<_>>(),
             "yarn": "Table 1 sweater (R = 0.75 mm), loop width 3 mm, no gravity, no pins",
-            "damping_alpha": crate::studies::persistent::ALPHA,
+            "damping_alpha": sim_persistent::experiment::ALPHA,
             "dt_s": settings.dt, "settle_time_s": settings.settle_time,
         }),
         data,

@@ -7,8 +7,8 @@
 use sim_persistent::chart::Chart;
 
 use crate::plot::{LineChart, Series, save_side_by_side};
-use crate::studies::persistent::{Cycles, CyclesRun, SwatchSettings};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
+use sim_persistent::experiment::{Cycles, CyclesRun, SwatchSettings};
 
 /// Registry entry.
 pub fn spec() -> FigureSpec {

@@ -3,7 +3,7 @@
 //! so the regimes (ridges flattened against stitch wrapping, loops bent, yarns stretched) are
 //! read off the shares rather than guessed.
 //!
-//! Protocol ([`crate::studies::persistent::RibStretch`]): the rib settles free from its flat
+//! Protocol ([`sim_persistent::experiment::RibStretch`]): the rib settles free from its flat
 //! layout (it compresses in width), then its first and last columns are clamped where they
 //! settled and the right clamp is driven away at a constant speed, slow against the swatch's
 //! dynamics, with implicit Euler at dt = 1 ms. The force is the moving clamp's pull.
@@ -23,8 +23,10 @@
 use anyhow::Context;
 
 use crate::plot::{LineChart, Series, save_side_by_side};
-use crate::studies::persistent::{RibStretch, RibStretchRun, SwatchSettings, kind_name};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
+use sim_persistent::experiment::{
+    RibStretch, RibStretchRun, StretchSample, SwatchSettings, kind_name,
+};
 use sim_persistent::integrator::StepSettings;
 
 /// Registry entry.
@@ -123,7 +125,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     columns.push("coulomb_distance_m".to_string());
     columns.push("coulomb_force_n".to_string());
     let mut data = Table::new(&columns);
-    let energy = |s: &crate::studies::persistent::StretchSample, k| {
+    let energy = |s: &StretchSample, k| {
         s.energies
             .iter()
             .find(|(kind, _)| *kind == k)
@@ -135,7 +137,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         row.extend([c.distance, c.force]);
         data.push_row(row);
     }
-    let mm = |s: &crate::studies::persistent::StretchSample| 1e3 * s.distance;
+    let mm = |s: &StretchSample| 1e3 * s.distance;
     let force = LineChart::new("Rib stretch")
         .x_label("side-to-side distance (mm)")
         .y_label("pull on the side clamp (N)")
@@ -257,7 +259,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         config: serde_json::json!({
             "pattern": "rib 2x2", "width": experiment.width, "height": experiment.height,
             "yarn": "Table 1 sweater (R = 0.75 mm), loop width 3 mm, no gravity",
-            "damping_alpha": crate::studies::persistent::ALPHA,
+            "damping_alpha": sim_persistent::experiment::ALPHA,
             "dt_s": experiment.settings.dt, "settle_time_s": experiment.settings.settle_time,
             "clamp_speed_m_per_s": experiment.speed, "extension_m": experiment.extension,
             "newton_abs_tol_n": experiment.settings.newton_abs_tol,

@@ -26,8 +26,8 @@
 use anyhow::Context;
 
 use crate::plot::{LineChart, Series};
-use crate::studies::persistent::{RibStretch, RibStretchRun, SwatchSettings};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
+use sim_persistent::experiment::{RibStretch, RibStretchRun, SwatchSettings};
 use sim_persistent::integrator::StepSettings;
 
 /// Registry entry.

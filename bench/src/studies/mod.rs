@@ -2,4 +2,5 @@
 
 pub mod cantilever;
 pub mod periodic;
+/// Tube rendering of persistent-contact swatches (the experiments: `sim_persistent::experiment`).
 pub mod persistent;

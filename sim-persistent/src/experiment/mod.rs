@@ -1,0 +1,28 @@
+//! Swatch experiments of the persistent-contact simulator (seed 000 §4.5, §5.2): the
+//! computations behind the `rib-stretch`, `curl`, `plasticity`, `patterns-on-sphere` and
+//! `persistent-time-vs-error` figures, usable from library code, tests and (clamp sets)
+//! scene files.
+//!
+//! | module | contents | source |
+//! |---|---|---|
+//! | [`swatch`] | swatch settings (Table 1 sweater yarn, loop width 3 mm, α = 10 /s), builder, free settling, stepping, positions and energies | seed 000 §5.2 |
+//! | [`clamps`] | clamp sets (cast-on, bind-off, left / right side, any column) of knits and weaves; side clamps pinned where the nodes are | seed 000 §4.5, §5.2.3 |
+//! | [`pull`] | the rib stretch: a settled 2 × 2 rib pulled between side clamps | seed 000 §5.2.3, Fig. 11 |
+//! | [`cycles`] | loading–unloading cycles between side clamps, residual deformation | seed 000 §4.5, Fig. 9 |
+//! | [`drape`] | drape measures: projected-area ratio, corner drop, penetration | seed 000 §5.2.1 |
+//! | [`sphere_drop`] | swatches dropped onto a sphere with sticking contacts until at rest | seed 000 §5.2.1, Fig. 12 |
+
+pub mod clamps;
+pub mod cycles;
+pub mod drape;
+pub mod pull;
+pub mod sphere_drop;
+pub mod swatch;
+
+pub use clamps::{ClampSet, Grid, SideClamps};
+pub use cycles::{CycleSample, Cycles, CyclesRun};
+pub use pull::{RibStretch, RibStretchRun, SettledRib, StretchSample};
+pub use swatch::{
+    ALPHA, LOOP_WIDTH, SwatchSettings, centroid, elastic_energies, kind_name, positions, run_steps,
+    settled, swatch,
+};
