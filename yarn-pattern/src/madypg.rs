@@ -376,7 +376,7 @@ fn parse_npy(bytes: &[u8]) -> Result<(usize, Vec<[f32; 4]>), NpyProblem> {
         other => {
             let found = match other {
                 npyz::DType::Plain(t) => t.to_string(),
-                other => format!("{}", other.descr()),
+                other => other.descr().to_string(),
             };
             return Err(NpyProblem::WrongDtype { found });
         }
@@ -389,7 +389,7 @@ fn parse_npy(bytes: &[u8]) -> Result<(usize, Vec<[f32; 4]>), NpyProblem> {
         [rows, 4] if rows >= 1 => rows,
         _ => return Err(NpyProblem::WrongShape { found: shape }),
     };
-    let expected = rows.checked_mul(16).unwrap_or(usize::MAX);
+    let expected = rows.saturating_mul(16);
     if rest.len() != expected {
         return Err(NpyProblem::DataLength {
             rows,
