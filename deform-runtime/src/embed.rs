@@ -16,6 +16,7 @@
 
 use std::collections::HashMap;
 
+use yarn_output::Polylines;
 use yarn_pattern::tile::Tile;
 
 use crate::error::{DeformError, Result};
@@ -324,4 +325,18 @@ pub fn embed<T: Real>(
         });
     }
     Ok(out)
+}
+
+impl<T> Embedding<T> {
+    /// The yarn curves of a deformed frame: `output`'s coordinates (m) with this embedding's
+    /// curve offsets and closed flags, ready for the `yarn-output` writers and renderer.
+    pub fn polylines<'a>(&'a self, output: &'a crate::kernel::YarnOutput<T>) -> Polylines<'a, T> {
+        Polylines {
+            x: &output.x,
+            y: &output.y,
+            z: &output.z,
+            curve_offsets: &self.curve_offsets,
+            closed: &self.closed,
+        }
+    }
 }

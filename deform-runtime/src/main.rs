@@ -245,13 +245,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         let t_write = Instant::now();
         let e = deformer.embedding();
         let o = backend.output(&deformer);
-        let lines = Polylines {
-            x: &o.x,
-            y: &o.y,
-            z: &o.z,
-            curve_offsets: &e.curve_offsets,
-            closed: &e.closed,
-        };
+        let lines = e.polylines(o);
         let mut written = Vec::new();
         for format in &args.formats {
             let ext = match format {

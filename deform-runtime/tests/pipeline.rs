@@ -6,7 +6,6 @@ mod common;
 use common::*;
 use deform_runtime::deform::{clamp_eigenvalues, strains};
 use deform_runtime::{DeformOptions, EmbedOptions, RestMesh, embed, synthetic};
-use yarn_output::Polylines;
 use yarn_output::render::{Camera, Image, RenderOptions, render_tubes};
 
 #[test]
@@ -307,13 +306,7 @@ fn output_files_describe_the_same_curves() {
     .unwrap();
     let e = d.embedding();
     let o = d.output();
-    let lines = Polylines {
-        x: &o.x,
-        y: &o.y,
-        z: &o.z,
-        curve_offsets: &e.curve_offsets,
-        closed: &e.closed,
-    };
+    let lines = e.polylines(o);
     let dir = std::env::temp_dir().join(format!("deform-runtime-out-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let comment = "deform-runtime test";
@@ -364,13 +357,7 @@ fn deformed_pattern_renders_every_edge() {
     d.frame(&synthetic::map_uvs(&mesh, |uv| synthetic::wave(uv, 2.0)))
         .unwrap();
     let (e, o) = (d.embedding(), d.output());
-    let lines = Polylines {
-        x: &o.x,
-        y: &o.y,
-        z: &o.z,
-        curve_offsets: &e.curve_offsets,
-        closed: &e.closed,
-    };
+    let lines = e.polylines(o);
     let options = RenderOptions {
         camera: Camera {
             direction: [0.3, 0.5, -1.0],

@@ -47,14 +47,17 @@ impl<T: Copy + Into<f64>> Polylines<'_, T> {
         if ok {
             return Ok(());
         }
-        Err(OutputError::Invalid(format!(
-            "inconsistent polylines: {n} x, {} y, {} z, {} curve offsets (last {:?}), {} closed flags",
-            self.y.len(),
-            self.z.len(),
-            self.curve_offsets.len(),
-            self.curve_offsets.last(),
-            self.closed.len()
-        )))
+        Err(OutputError::Option {
+            name: "polylines",
+            message: format!(
+                "inconsistent polylines: {n} x, {} y, {} z, {} curve offsets (last {:?}), {} closed flags",
+                self.y.len(),
+                self.z.len(),
+                self.curve_offsets.len(),
+                self.curve_offsets.last(),
+                self.closed.len()
+            ),
+        })
     }
 
     /// The vertex range and closed flag of each curve.
@@ -92,8 +95,8 @@ impl<T: Copy + Into<f64>> Polylines<'_, T> {
     }
 }
 
-/// Owned polylines in `f64`, built curve by curve; [`PolylineBuf::view`] lends them to the
-/// writers.
+/// Owned polylines in `f64`, built curve by curve ([`PolylineBuf::push_curve`]);
+/// [`PolylineBuf::view`] lends them to the writers.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PolylineBuf {
     /// x coordinates (m).
@@ -109,21 +112,6 @@ pub struct PolylineBuf {
 }
 
 impl PolylineBuf {
-    /// Open curves from their points (m).
-    pub fn from_open_curves<'p, C>(curves: impl IntoIterator<Item = C>) -> Result<Self>
-    where
-        C: IntoIterator<Item = &'p [f64; 3]>,
-    {
-        let mut buf = Self {
-            curve_offsets: vec![0],
-            ..Self::default()
-        };
-        for curve in curves {
-            buf.push_curve(curve.into_iter().copied(), false)?;
-        }
-        Ok(buf)
-    }
-
     /// Appends one curve; fails when the vertex count no longer fits the `u32` offsets.
     pub fn push_curve(
         &mut self,

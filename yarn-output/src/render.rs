@@ -336,25 +336,7 @@ pub fn render_tubes<T: Copy + Into<f64>>(
 ) -> Result<Rendering> {
     options.validate()?;
     let n = lines.x.len();
-    let n_curves = lines.curve_offsets.len().saturating_sub(1);
-    let consistent = lines.y.len() == n
-        && lines.z.len() == n
-        && lines.closed.len() == n_curves
-        && lines.curve_offsets.windows(2).all(|w| w[0] <= w[1])
-        && lines.curve_offsets.last().is_none_or(|&e| e as usize <= n);
-    if !consistent {
-        return Err(OutputError::Option {
-            name: "polylines",
-            message: format!(
-                "inconsistent polylines: {n} x, {} y, {} z, {} curve offsets (last {:?}), {} closed flags",
-                lines.y.len(),
-                lines.z.len(),
-                lines.curve_offsets.len(),
-                lines.curve_offsets.last(),
-                lines.closed.len()
-            ),
-        });
-    }
+    lines.validate()?;
     let [right, up, forward] = basis(&options.camera)?;
     // Camera coordinates (screen x, screen y, depth); NaN marks a skipped vertex.
     let mut skipped = 0;
@@ -463,7 +445,7 @@ pub fn render_tubes<T: Copy + Into<f64>>(
             }
         }
     };
-    for c in 0..n_curves {
+    for c in 0..lines.n_curves() {
         let (start, end) = (
             lines.curve_offsets[c] as usize,
             lines.curve_offsets[c + 1] as usize,

@@ -10,7 +10,6 @@
 
 use deform_runtime::pipeline::{SetupOptions, build, read_pattern};
 use deform_runtime::{DeformOptions, Deformer, synthetic};
-use yarn_output::Polylines;
 use yarn_output::render::{Camera, Framing, RenderOptions, Rendering, render_tubes};
 
 use crate::plot::{LineChart, Series, save_images};
@@ -31,13 +30,7 @@ pub fn spec() -> FigureSpec {
 /// `d`'s output rendered as tubes (radius `options.radius`).
 fn tubes(d: &Deformer<f64>, options: &RenderOptions) -> anyhow::Result<Rendering> {
     let (e, o) = (d.embedding(), d.output());
-    let lines = Polylines {
-        x: &o.x,
-        y: &o.y,
-        z: &o.z,
-        curve_offsets: &e.curve_offsets,
-        closed: &e.closed,
-    };
+    let lines = e.polylines(o);
     Ok(render_tubes(&lines, options)?)
 }
 

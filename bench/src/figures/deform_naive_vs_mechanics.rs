@@ -8,7 +8,6 @@
 
 use deform_runtime::pipeline::{SetupOptions, build};
 use deform_runtime::{DeformOptions, Deformer, Real, synthetic};
-use yarn_output::Polylines;
 use yarn_output::render::{Camera, Framing, RenderOptions, Rendering, render_tubes};
 
 use super::deform_real_db as real;
@@ -75,13 +74,7 @@ fn top_view<T: Real>(d: &Deformer<T>, title: &str) -> LineChart {
 /// `d`'s output rendered as tubes (radius `options.radius`).
 fn tubes(d: &Deformer<f64>, options: &RenderOptions) -> anyhow::Result<Rendering> {
     let (e, o) = (d.embedding(), d.output());
-    let lines = Polylines {
-        x: &o.x,
-        y: &o.y,
-        z: &o.z,
-        curve_offsets: &e.curve_offsets,
-        closed: &e.closed,
-    };
+    let lines = e.polylines(o);
     Ok(render_tubes(&lines, options)?)
 }
 
