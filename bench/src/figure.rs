@@ -153,6 +153,7 @@ pub fn all_figures() -> Vec<FigureSpec> {
         rod_convergence::spec(),
         shell_nh_vs_stvk::spec(),
         shell_fit::spec(),
+        shell_fit_all::spec(),
         shell_bending_fit::spec(),
         shell_time_vs_error::spec(),
         deform_throughput::spec(),

@@ -255,8 +255,44 @@ pub fn save_side_by_side(
     save_panels(&[left, right], dir, stem, PAIR_SIZE)
 }
 
+/// Writes charts in a grid of `cols` columns (row by row) as `<dir>/<stem>.png` and
+/// `<dir>/<stem>.svg`, each panel the size of a single chart scaled by `scale`.
+pub fn save_grid(
+    charts: &[&LineChart],
+    cols: usize,
+    scale: f64,
+    dir: &Path,
+    stem: &str,
+) -> anyhow::Result<()> {
+    if charts.is_empty() || cols == 0 {
+        bail!("{stem}: a grid needs charts and at least one column");
+    }
+    let rows = charts.len().div_ceil(cols);
+    let (w, h) = (
+        (SINGLE_SIZE.0 as f64 * scale) as u32,
+        (SINGLE_SIZE.1 as f64 * scale) as u32,
+    );
+    save_layout(
+        charts,
+        (rows, cols),
+        dir,
+        stem,
+        (w * cols as u32, h * rows as u32),
+    )
+}
+
 fn save_panels(
     charts: &[&LineChart],
+    dir: &Path,
+    stem: &str,
+    size: (u32, u32),
+) -> anyhow::Result<()> {
+    save_layout(charts, (1, charts.len()), dir, stem, size)
+}
+
+fn save_layout(
+    charts: &[&LineChart],
+    layout: (usize, usize),
     dir: &Path,
     stem: &str,
     size: (u32, u32),
@@ -269,14 +305,14 @@ fn save_panels(
     let png = dir.join(format!("{stem}.png"));
     {
         let root = BitMapBackend::new(&png, size).into_drawing_area();
-        draw_panels(&root, charts).with_context(|| format!("drawing {}", png.display()))?;
+        draw_panels(&root, charts, layout).with_context(|| format!("drawing {}", png.display()))?;
         root.present()
             .with_context(|| format!("writing {}", png.display()))?;
     }
     let svg = dir.join(format!("{stem}.svg"));
     {
         let root = SVGBackend::new(&svg, size).into_drawing_area();
-        draw_panels(&root, charts).with_context(|| format!("drawing {}", svg.display()))?;
+        draw_panels(&root, charts, layout).with_context(|| format!("drawing {}", svg.display()))?;
         root.present()
             .with_context(|| format!("writing {}", svg.display()))?;
     }
@@ -331,13 +367,17 @@ pub fn save_images(
     Ok(())
 }
 
-fn draw_panels<DB>(root: &DrawingArea<DB, Shift>, charts: &[&LineChart]) -> anyhow::Result<()>
+fn draw_panels<DB>(
+    root: &DrawingArea<DB, Shift>,
+    charts: &[&LineChart],
+    layout: (usize, usize),
+) -> anyhow::Result<()>
 where
     DB: DrawingBackend,
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
-    for (area, chart) in root.split_evenly((1, charts.len())).iter().zip(charts) {
+    for (area, chart) in root.split_evenly(layout).iter().zip(charts) {
         draw_chart(area, chart)?;
     }
     Ok(())

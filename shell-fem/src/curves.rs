@@ -228,6 +228,40 @@ mod tests {
             kss: 100.0,
             kn1: 50.0,
             kn2: 50.0,
+            bx: 0.0,
+            by: 0.0,
+            cx: 0.0,
+            cy: 0.0,
+        }
+    }
+
+    #[test]
+    fn stiffening_model_never_inverts_under_uniaxial_stretch() {
+        // Soft transverse direction, strong coupling, the smallest barrier the fit allows:
+        // StVK inverts (c = 1) here, the stiffening model must keep J > 0 at every stretch.
+        let params = InPlaneParams {
+            kxx: 150.0,
+            kxy: 40.0,
+            kyy: 20.0,
+            kss: 30.0,
+            kn1: 0.0,
+            kn2: crate::fit::STIFFENING_MIN_KN2,
+            bx: 3.0,
+            by: 2.0,
+            cx: 0.0,
+            cy: 0.0,
+        };
+        let stvk = Material::stvk(params);
+        let stiff = Material {
+            params,
+            model: crate::material::Model::Stiffening,
+        };
+        assert_eq!(uniaxial_compression(&stvk, 2.0, 0.0).unwrap(), 1.0);
+        for s in [0.1, 0.5, 1.0, 2.0, 3.0] {
+            for angle in [0.0, std::f64::consts::FRAC_PI_4, std::f64::consts::FRAC_PI_2] {
+                let c = uniaxial_compression(&stiff, s, angle).unwrap();
+                assert!(c > 0.0 && c < 1.0, "s = {s}, angle {angle}: c = {c}");
+            }
         }
     }
 

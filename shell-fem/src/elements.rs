@@ -45,17 +45,10 @@ impl MembraneTriangle {
         })
     }
 
-    /// Energy (J), gradient and (optionally) column-major Hessian for node positions `x` of
-    /// dimension `dim` (`x.len() == 3 dim`); `grad`/`hess` are overwritten.
-    pub fn eval_into(
-        &self,
-        dim: usize,
-        x: &[f64],
-        grad: &mut [f64],
-        hess: Option<&mut [f64]>,
-    ) -> f64 {
-        let n = 3 * dim;
-        debug_assert!(x.len() == n && grad.len() == n);
+    /// `c = (C₁₁, C₂₂, C₁₂)` of the triangle's `F = Σ_i x_i ⊗ ∇N_i` and its Jacobian by the
+    /// local DOFs (`3 dim` columns used): `∂c₁₁ = 2∇N_i[0] f₀`, `∂c₂₂ = 2∇N_i[1] f₁`,
+    /// `∂c₁₂ = ∇N_i[0] f₁ + ∇N_i[1] f₀`.
+    fn kinematics(&self, dim: usize, x: &[f64]) -> ([f64; 3], [[f64; 9]; 3]) {
         let d = &self.shape_gradients;
         // Columns f_a = Σ_i ∇N_i[a] x_i.
         let mut f = [[0.0; 3]; 2];
@@ -68,10 +61,6 @@ impl MembraneTriangle {
         }
         let dot = |u: &[f64; 3], v: &[f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
         let c = [dot(&f[0], &f[0]), dot(&f[1], &f[1]), dot(&f[0], &f[1])];
-        let e = self.material.eval_c(c);
-        let a = self.area;
-        // Jacobian of c by the local DOFs: ∂c₁₁ = 2∇N_i[0] f₀, ∂c₂₂ = 2∇N_i[1] f₁,
-        // ∂c₁₂ = ∇N_i[0] f₁ + ∇N_i[1] f₀.
         let mut jc = [[0.0; 9]; 3];
         for i in 0..3 {
             for j in 0..dim {
@@ -81,6 +70,35 @@ impl MembraneTriangle {
                 jc[2][k] = d[i][0] * f[1][j] + d[i][1] * f[0][j];
             }
         }
+        (c, jc)
+    }
+
+    /// `∂(∂W/∂x)/∂p_k` (J/m per unit parameter) at node positions `x` of dimension `dim`: the
+    /// parameter derivative of the element gradient ([`Material::eval_c_dparam`]), written
+    /// into `grad` (`3 dim` entries).
+    pub fn param_gradient_into(&self, dim: usize, x: &[f64], k: usize, grad: &mut [f64]) {
+        let (c, jc) = self.kinematics(dim, x);
+        let dg = self.material.eval_c_dparam(c, k);
+        for (l, g) in grad.iter_mut().enumerate().take(3 * dim) {
+            *g = self.area * (0..3).map(|m| dg[m] * jc[m][l]).sum::<f64>();
+        }
+    }
+
+    /// Energy (J), gradient and (optionally) column-major Hessian for node positions `x` of
+    /// dimension `dim` (`x.len() == 3 dim`); `grad`/`hess` are overwritten.
+    pub fn eval_into(
+        &self,
+        dim: usize,
+        x: &[f64],
+        grad: &mut [f64],
+        hess: Option<&mut [f64]>,
+    ) -> f64 {
+        let n = 3 * dim;
+        debug_assert!(x.len() == n && grad.len() == n);
+        let d = &self.shape_gradients;
+        let (c, jc) = self.kinematics(dim, x);
+        let e = self.material.eval_c(c);
+        let a = self.area;
         for k in 0..n {
             grad[k] = a * (0..3).map(|m| e.grad[m] * jc[m][k]).sum::<f64>();
         }

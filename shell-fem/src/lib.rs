@@ -7,12 +7,13 @@
 //!
 //! | module | contents |
 //! |---|---|
-//! | [`material`] | Eq. 1: the in-plane energy density Ψ (anisotropic StVK + `kn1 (J−1)² + kn2 log² J`, or plain StVK), first Piola–Kirchhoff stress, tangent |
+//! | [`material`] | Eq. 1: the in-plane energy density Ψ (anisotropic StVK + `kn1 (J−1)² + kn2 log² J`, or plain StVK; beyond the paper, per-direction exponential stiffening), first Piola–Kirchhoff stress, tangent, parameter derivatives |
 //! | [`elements`] | constant-strain membrane triangles (2-D or 3-D nodes), edge-hinge bending `κ = 3θ/H` with `k_θ` interpolated weft/bias/warp (Eq. 4), gravity |
 //! | [`shell`] | triangle meshes (rectangle, uniform subdivision, hinges) and the assembled [`Shell`] as a [`solver::Problem`] |
 //! | [`swatch`] | the virtual stretch test (10 cm × 6 cm planar swatch, clamped or sliding ends): clamp force `f_s`, mid-length compression `c`, load stepping, adjoint sensitivities |
 //! | [`pear_loop`] | the pear-loop bending test on the 3-D shell (clamped ends pointing down, gravity, no contact): loop height, width and aspect ratio `r = h/p` against clamp distance |
 //! | [`measurements`] | readers for the stitch-by-stitch uniaxial CSV and the per-direction `(s, f_s, c)` schema; merging, loading branch, binning |
+//! | [`fabrics`] | a folder of measurements grouped into fabrics by file name; one fit per fabric and model, with errors at every bin and on a held-out stretch range |
 //! | [`fit`] | the in-plane fit of Eq. 2: bounded Levenberg–Marquardt on simulated-in-the-loop residuals with implicit-differentiation Jacobians |
 //! | [`bending_fit`] | the bending fit of §5.2: `{k_θ,weft, k_θ,bias, k_θ,warp}` to pear-loop ratios (7 clamp distances per direction), implicit-differentiation sensitivities, the same bounded LM in `ln k`; pear-loop CSV reader |
 //! | [`curves`] | the uniform target curves of Eq. 3 (zero orthogonal stress, `σ_s = uᵀPu`) and bending `σ_κ = 2k_θκ` |
@@ -73,6 +74,7 @@
 pub mod bending_fit;
 pub mod curves;
 pub mod elements;
+pub mod fabrics;
 pub mod fit;
 pub mod material;
 pub mod measurements;

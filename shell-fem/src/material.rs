@@ -1,5 +1,5 @@
 //! The in-plane material law of the thin shell: a pointwise energy density of the 2-D
-//! deformation, knowing nothing about elements (seed 002, §5.1, Eq. 1).
+//! deformation, knowing nothing about elements (seed 002, §5.1, Eq. 1, and one model beyond it).
 //!
 //! # Equations (all in one place)
 //!
@@ -19,19 +19,43 @@
 //! `kn2 > 0`); for `det C ≤ 0` (a degenerate element) its energy is `+∞` so that line searches
 //! reject the step. [`Model::StVK`] drops the two area terms (the comparison model of Fig. 5).
 //!
+//! **Beyond the paper: [`Model::Stiffening`].** Knitted fabrics stiffen by an order of
+//! magnitude over their tested stretch range, which no quadratic in `E` follows; and their
+//! lateral contraction under a uniaxial pull saturates as the loops jam. The stiffening model
+//! replaces the two normal terms `½ kxx E₁₁²`, `½ kyy E₂₂²` of Ψ_StVK by a Fung-type
+//! exponential per material direction with one rate in tension and one in compression, keeping
+//! everything else of Eq. 1:
+//!
+//! ```text
+//! Ψ_stiff = kxx φ(E₁₁; bx, cx) + kyy φ(E₂₂; by, cy) + kxy E₁₁E₂₂ + ½ kss (2E₁₂)² + kn1 (J − 1)² + kn2 log² J
+//! φ(E; b, c) = (e^{βE} − 1 − βE) / β²,   β = b for E ≥ 0, β = −c for E < 0
+//! φ' = (e^{βE} − 1)/β,   φ'' = e^{βE} = e^{b E} (tension) or e^{c |E|} (compression)     (φ → ½E² as β → 0)
+//! ```
+//!
+//! The rates `b, c ≥ 0` (per unit Green strain) make the normal tangent stiffness
+//! `kxx e^{bx E₁₁}` in tension and `kxx e^{cx |E₁₁|}` in compression, so `kxx` keeps its meaning
+//! as the small-strain stiffness and zero rates recover Eq. 1 exactly. φ is convex and `C²` at
+//! `E = 0` (both branches have `φ = φ' = 0`, `φ'' = 1` there). **Stable in compression:** the
+//! compressive branch only stiffens, and the `log² J` barrier (which the fit keeps at
+//! `kn2 > 0` for this model) still rules `J → 0` out, so no element inverts.
+//!
 //! The law is written as a function of the three independent components `c = (C₁₁, C₂₂, C₁₂)`:
 //! `∂Ψ/∂c` and `∂²Ψ/∂c²` are closed forms ([`Material::eval_c`]); the first Piola–Kirchhoff
 //! stress `P = ∂Ψ/∂F` (N/m) and the tangent `∂P/∂F` follow by the chain rule through
 //! `C₁₁ = f₁·f₁`, `C₂₂ = f₂·f₂`, `C₁₂ = f₁·f₂` (`f_a` the columns of `F`).
 //!
-//! Note that the energy is **linear in the six parameters**: `Ψ(p) = Σ_k p_k Ψ(e_k)`. The fit
-//! uses this to get `∂(gradient)/∂p` exactly (see `fit`).
+//! **Parameter derivatives.** The adjoint fit needs `∂(∂Ψ/∂c)/∂p_k` for every parameter
+//! ([`Material::eval_c_dparams`]). Ψ is linear in the six stiffnesses (for the stiffening
+//! model: at fixed rates), so for those it is `∂Ψ/∂c` of the unit parameter; for the rates it is
+//! the closed form `∂φ'/∂β = E² h₂(βE)`, `h₂(x) = (x eˣ − eˣ + 1)/x²` (with `∂β/∂c = −1`).
 
 use nalgebra::{DMatrix, SMatrix};
 use serde::{Deserialize, Serialize};
 
-/// The six in-plane parameters `k_inplane = {kxx, kxy, kyy, kss, kn1, kn2}` of Eq. 1, all in
-/// N/m (energy per rest area).
+/// The in-plane parameters: the six `k_inplane = {kxx, kxy, kyy, kss, kn1, kn2}` of Eq. 1
+/// (N/m, energy per rest area) and the four stiffening rates `{bx, by, cx, cy}` of
+/// [`Model::Stiffening`] (per unit Green strain; ignored by the paper's models, absent in files
+/// means 0).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct InPlaneParams {
     /// Weft (material x) normal stiffness `kxx` (N/m).
@@ -46,21 +70,40 @@ pub struct InPlaneParams {
     pub kn1: f64,
     /// Weight of the Neo-Hookean-style barrier `log² J` (N/m).
     pub kn2: f64,
+    /// Weft stiffening rate `bx` of [`Model::Stiffening`] (per unit Green strain).
+    #[serde(default)]
+    pub bx: f64,
+    /// Warp stiffening rate `by` of [`Model::Stiffening`] (per unit Green strain).
+    #[serde(default)]
+    pub by: f64,
+    /// Weft compression stiffening rate `cx` of [`Model::Stiffening`] (per unit Green strain).
+    #[serde(default)]
+    pub cx: f64,
+    /// Warp compression stiffening rate `cy` of [`Model::Stiffening`] (per unit Green strain).
+    #[serde(default)]
+    pub cy: f64,
 }
 
 impl InPlaneParams {
     /// Number of parameters.
-    pub const LEN: usize = 6;
+    pub const LEN: usize = 10;
     /// Parameter names in [`to_array`](Self::to_array) order.
-    pub const NAMES: [&'static str; 6] = ["kxx", "kxy", "kyy", "kss", "kn1", "kn2"];
+    pub const NAMES: [&'static str; 10] = [
+        "kxx", "kxy", "kyy", "kss", "kn1", "kn2", "bx", "by", "cx", "cy",
+    ];
+    /// Indices of the stiffening rates (not used by the paper's models).
+    pub const RATES: [usize; 4] = [6, 7, 8, 9];
 
-    /// `[kxx, kxy, kyy, kss, kn1, kn2]` (N/m).
-    pub fn to_array(&self) -> [f64; 6] {
-        [self.kxx, self.kxy, self.kyy, self.kss, self.kn1, self.kn2]
+    /// `[kxx, kxy, kyy, kss, kn1, kn2, bx, by, cx, cy]`.
+    pub fn to_array(&self) -> [f64; 10] {
+        [
+            self.kxx, self.kxy, self.kyy, self.kss, self.kn1, self.kn2, self.bx, self.by, self.cx,
+            self.cy,
+        ]
     }
 
     /// Inverse of [`to_array`](Self::to_array).
-    pub fn from_array(p: [f64; 6]) -> Self {
+    pub fn from_array(p: [f64; 10]) -> Self {
         Self {
             kxx: p[0],
             kxy: p[1],
@@ -68,17 +111,14 @@ impl InPlaneParams {
             kss: p[3],
             kn1: p[4],
             kn2: p[5],
+            bx: p[6],
+            by: p[7],
+            cx: p[8],
+            cy: p[9],
         }
     }
 
-    /// The `k`-th unit parameter vector (energy `Ψ(e_k)` is the derivative of Ψ by `p_k`).
-    pub fn unit(k: usize) -> Self {
-        let mut p = [0.0; 6];
-        p[k] = 1.0;
-        Self::from_array(p)
-    }
-
-    /// A knit-like example (N/m): soft and anisotropic, warp stiffer than weft.
+    /// A knit-like example (N/m): soft and anisotropic, warp stiffer than weft; no stiffening.
     pub fn example() -> Self {
         Self {
             kxx: 300.0,
@@ -87,6 +127,20 @@ impl InPlaneParams {
             kss: 150.0,
             kn1: 40.0,
             kn2: 20.0,
+            bx: 0.0,
+            by: 0.0,
+            cx: 0.0,
+            cy: 0.0,
+        }
+    }
+
+    /// The signed rate `β` of direction `a` (0 weft, 1 warp) at normal Green strain `e`.
+    fn rate(&self, a: usize, e: f64) -> f64 {
+        match (a, e >= 0.0) {
+            (0, true) => self.bx,
+            (0, false) => -self.cx,
+            (_, true) => self.by,
+            (_, false) => -self.cy,
         }
     }
 }
@@ -98,6 +152,49 @@ pub enum Model {
     Augmented,
     /// Anisotropic StVK only (`kn1`, `kn2` ignored); inverts under strong uniaxial stretch.
     StVK,
+    /// Beyond the paper: Eq. 1 with exponential stiffening of the weft and warp normal terms
+    /// in tension (rates `bx`, `by`) and compression (`cx`, `cy`); see the module docs.
+    Stiffening,
+}
+
+impl Model {
+    /// All models, the paper's first.
+    pub const ALL: [Model; 3] = [Model::StVK, Model::Augmented, Model::Stiffening];
+
+    /// Lower-case name (`stvk`, `augmented`, `stiffening`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::StVK => "stvk",
+            Model::Augmented => "augmented",
+            Model::Stiffening => "stiffening",
+        }
+    }
+
+    /// Whether parameter `k` (order of [`InPlaneParams::to_array`]) enters the energy.
+    pub fn uses(self, k: usize) -> bool {
+        match self {
+            Model::StVK => k < 4,
+            Model::Augmented => k < 6,
+            Model::Stiffening => k < InPlaneParams::LEN,
+        }
+    }
+}
+
+/// `g(x) = (eˣ − 1 − x)/x²`, `h₁(x) = (eˣ − 1)/x`, `h₂(x) = (x eˣ − eˣ + 1)/x²` (all finite at
+/// `x = 0`, by series near it): `φ = E² g(bE)`, `φ' = E h₁(bE)`, `∂φ'/∂b = E² h₂(bE)`.
+fn exp_kernels(x: f64) -> (f64, f64, f64) {
+    if x.abs() < 1e-3 {
+        let x2 = x * x;
+        (
+            0.5 + x / 6.0 + x2 / 24.0 + x2 * x / 120.0,
+            1.0 + 0.5 * x + x2 / 6.0 + x2 * x / 24.0,
+            0.5 + x / 3.0 + x2 / 8.0 + x2 * x / 30.0,
+        )
+    } else {
+        let em1 = x.exp_m1();
+        let x2 = x * x;
+        ((em1 - x) / x2, em1 / x, (x * (em1 + 1.0) - em1) / x2)
+    }
 }
 
 /// A pointwise in-plane material: parameters plus model choice.
@@ -147,15 +244,36 @@ impl Material {
         let mut psi = 0.0;
         let mut grad = [0.0; 3];
         let mut hess = [[0.0; 3]; 3];
-        for a in 0..3 {
-            let ke: f64 = (0..3).map(|b| k[a][b] * eps[b]).sum();
-            psi += 0.5 * eps[a] * ke;
-            grad[a] = t[a] * ke;
-            for b in 0..3 {
-                hess[a][b] = t[a] * k[a][b] * t[b];
+        if self.model == Model::Stiffening {
+            // kxx φ(E₁₁; bx) + kyy φ(E₂₂; by) + kxy E₁₁E₂₂ + ½ kss ε₃², with ∂E_aa/∂c_a = ½.
+            let normal = |k: f64, b: f64, e: f64| {
+                let (g, h1, _) = exp_kernels(b * e);
+                (k * e * e * g, k * e * h1, k * (b * e).exp())
+            };
+            let (px, dx, hx) = normal(p.kxx, p.rate(0, eps[0]), eps[0]);
+            let (py, dy, hy) = normal(p.kyy, p.rate(1, eps[1]), eps[1]);
+            psi = px + py + p.kxy * eps[0] * eps[1] + 0.5 * p.kss * eps[2] * eps[2];
+            grad = [
+                0.5 * (dx + p.kxy * eps[1]),
+                0.5 * (dy + p.kxy * eps[0]),
+                p.kss * eps[2],
+            ];
+            hess = [
+                [0.25 * hx, 0.25 * p.kxy, 0.0],
+                [0.25 * p.kxy, 0.25 * hy, 0.0],
+                [0.0, 0.0, p.kss],
+            ];
+        } else {
+            for a in 0..3 {
+                let ke: f64 = (0..3).map(|b| k[a][b] * eps[b]).sum();
+                psi += 0.5 * eps[a] * ke;
+                grad[a] = t[a] * ke;
+                for b in 0..3 {
+                    hess[a][b] = t[a] * k[a][b] * t[b];
+                }
             }
         }
-        if self.model == Model::Augmented {
+        if self.model != Model::StVK {
             // g(d) = kn1 (√d − 1)² + ¼ kn2 ln² d with d = det C = J².
             let d = c[0] * c[1] - c[2] * c[2];
             if d <= 0.0 || !d.is_finite() {
@@ -180,6 +298,45 @@ impl Material {
             }
         }
         CEval { psi, grad, hess }
+    }
+
+    /// `∂(∂Ψ/∂c)/∂p_k`: how the stress in `c` changes with parameter `k` (order of
+    /// [`InPlaneParams::to_array`]); zero for parameters the model does not use. The six
+    /// stiffnesses enter linearly (at fixed rates): their derivative is `∂Ψ/∂c` of the unit
+    /// stiffness. NaN where the energy is infinite.
+    pub fn eval_c_dparam(&self, c: [f64; 3], k: usize) -> [f64; 3] {
+        if !self.model.uses(k) {
+            return [0.0; 3];
+        }
+        let p = &self.params;
+        match k {
+            6..=9 => {
+                // Direction a; the rate acts on its tension (k = 6, 7) or compression branch.
+                let a = (k - 6) % 2;
+                let tension = k < 8;
+                let stiffness = if a == 0 { p.kxx } else { p.kyy };
+                let e = 0.5 * (c[a] - 1.0);
+                let mut out = [0.0; 3];
+                if (e >= 0.0) == tension {
+                    let (_, _, h2) = exp_kernels(p.rate(a, e) * e);
+                    // ∂β/∂b = 1, ∂β/∂c = −1; ∂E/∂c_a = ½.
+                    let sign = if tension { 1.0 } else { -1.0 };
+                    out[a] = 0.5 * sign * stiffness * e * e * h2;
+                }
+                out
+            }
+            _ => {
+                let mut unit = p.to_array();
+                unit[..6].fill(0.0);
+                unit[k] = 1.0;
+                Material {
+                    params: InPlaneParams::from_array(unit),
+                    model: self.model,
+                }
+                .eval_c(c)
+                .grad
+            }
+        }
     }
 
     /// Energy density Ψ(F) (J/m²) for an `R × 2` deformation gradient.
@@ -304,14 +461,118 @@ mod tests {
         );
     }
 
+    fn stiffening() -> Material {
+        Material {
+            params: InPlaneParams {
+                bx: 4.0,
+                by: 9.0,
+                cx: 6.0,
+                cy: 2.5,
+                ..InPlaneParams::example()
+            },
+            model: Model::Stiffening,
+        }
+    }
+
     #[test]
-    fn energy_is_linear_in_parameters() {
+    fn stiffening_stress_and_tangent_are_derivatives_of_energy() {
+        let m = stiffening();
+        check(&m, SMatrix::<f64, 2, 2>::new(1.3, 0.2, -0.1, 0.8));
+        check(&m, SMatrix::<f64, 2, 2>::new(0.7, 0.05, 0.1, 1.4));
+        check(
+            &m,
+            SMatrix::<f64, 3, 2>::new(1.1, 0.3, -0.2, 0.9, 0.25, 0.1),
+        );
+        // Near E = 0 the kernels switch to their series and the rates switch branch: both
+        // sides must agree.
+        check(
+            &m,
+            SMatrix::<f64, 2, 2>::new(1.0 + 2e-5, 1e-6, -2e-6, 1.0 - 3e-5),
+        );
+        check(&m, SMatrix::<f64, 2, 2>::new(0.6, 0.1, 0.0, 0.75));
+    }
+
+    #[test]
+    fn stiffening_without_rates_is_the_augmented_model() {
         let p = InPlaneParams::example();
-        let f = SMatrix::<f64, 2, 2>::new(1.4, 0.1, 0.2, 0.85);
-        let full = Material::augmented(p).energy(&f);
-        let sum: f64 = (0..6)
-            .map(|k| p.to_array()[k] * Material::augmented(InPlaneParams::unit(k)).energy(&f))
-            .sum();
-        assert!((full - sum).abs() < 1e-12 * full.abs());
+        let (a, s) = (
+            Material::augmented(p),
+            Material {
+                params: p,
+                model: Model::Stiffening,
+            },
+        );
+        for f in [
+            SMatrix::<f64, 2, 2>::new(1.3, 0.2, -0.1, 0.8),
+            SMatrix::<f64, 2, 2>::new(0.6, 0.0, 0.0, 1.7),
+        ] {
+            let (ea, es) = (a.energy(&f), s.energy(&f));
+            assert!((ea - es).abs() <= 1e-12 * ea.abs(), "{ea} vs {es}");
+            let d = (a.first_piola(&f) - s.first_piola(&f)).amax();
+            assert!(d <= 1e-10 * a.first_piola(&f).amax(), "{d}");
+        }
+    }
+
+    #[test]
+    fn stiffening_tangent_grows_exponentially_in_tension_and_in_compression() {
+        // Pure weft stretch with kxy = kn1 = kn2 = 0: ∂²Ψ/∂E₁₁² = kxx e^{bx E₁₁}.
+        let m = Material {
+            params: InPlaneParams {
+                kxy: 0.0,
+                kn1: 0.0,
+                kn2: 0.0,
+                ..stiffening().params
+            },
+            model: Model::Stiffening,
+        };
+        for e11 in [-0.3, -1e-5, 0.0, 1e-5, 0.2, 0.5] {
+            let c = [1.0 + 2.0 * e11, 1.0, 0.0];
+            // ∂²Ψ/∂c₁₁² = ¼ ∂²Ψ/∂E₁₁².
+            let got = 4.0 * m.eval_c(c).hess[0][0];
+            let rate = if e11 >= 0.0 {
+                m.params.bx
+            } else {
+                -m.params.cx
+            };
+            let want = m.params.kxx * (rate * e11).exp();
+            assert!((got - want).abs() <= 1e-12 * want, "{e11}: {got} vs {want}");
+        }
+    }
+
+    #[test]
+    fn parameter_derivatives_match_finite_differences() {
+        let c = [1.44, 0.81, 0.12];
+        for m in [
+            Material::augmented(InPlaneParams::example()),
+            Material::stvk(InPlaneParams::example()),
+            stiffening(),
+        ] {
+            for k in 0..InPlaneParams::LEN {
+                let got = m.eval_c_dparam(c, k);
+                let h = 1e-6 * m.params.to_array()[k].abs().max(1.0);
+                let at = |dp: f64| {
+                    let mut p = m.params.to_array();
+                    p[k] += dp;
+                    Material {
+                        params: InPlaneParams::from_array(p),
+                        model: m.model,
+                    }
+                    .eval_c(c)
+                    .grad
+                };
+                let (gp, gm) = (at(h), at(-h));
+                for a in 0..3 {
+                    let fd = (gp[a] - gm[a]) / (2.0 * h);
+                    let tol = 1e-6 * (fd.abs() + got[a].abs()).max(1e-3);
+                    assert!(
+                        (fd - got[a]).abs() <= tol,
+                        "{:?} {} [{a}]: {} vs FD {fd}",
+                        m.model,
+                        InPlaneParams::NAMES[k],
+                        got[a]
+                    );
+                }
+            }
+        }
     }
 }

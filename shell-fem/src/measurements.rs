@@ -117,17 +117,106 @@ fn read(path: &Path) -> Result<String, ShellError> {
     })
 }
 
-/// Guesses the direction of a stitch-by-stitch file from its name (`…-x.csv` → weft,
-/// `…-y.csv` → warp, or a name containing `weft`/`bias`/`warp`).
-pub fn direction_from_name(path: &Path) -> Option<Direction> {
-    let stem = path.file_stem()?.to_str()?.to_ascii_lowercase();
-    for d in Direction::ALL {
-        if stem.contains(d.name()) {
-            return Some(d);
-        }
+/// Stitch-pattern words that may carry a direction letter glued to their end
+/// (`babyredo_gartery`, `babyredo_stockxnew`): only after one of these is a trailing `x`/`y`
+/// read as a direction, so that names such as `jersey` are not misread.
+pub const PATTERN_WORDS: [&str; 16] = [
+    "garter",
+    "rib",
+    "seed",
+    "moss",
+    "stock",
+    "stockinette",
+    "jersey",
+    "purl",
+    "interlock",
+    "links",
+    "pique",
+    "cable",
+    "lace",
+    "knit",
+    "weave",
+    "twill",
+];
+
+/// Reads a test direction from one name token: `x`/`course`/`weft`/`0` → weft,
+/// `y`/`wale`/`warp`/`90` → warp, `bias`/`45` → bias, or a [`PATTERN_WORDS`] word followed by
+/// `x`/`y`.
+fn direction_token(token: &str) -> Option<Direction> {
+    match token {
+        "course" | "courses" => return Some(Direction::Weft),
+        "wale" | "wales" => return Some(Direction::Warp),
+        _ => {}
     }
-    let last = stem.rsplit(['-', '_']).next()?;
-    Direction::parse(last)
+    if let Some(d) = Direction::parse(token) {
+        return Some(d);
+    }
+    let (word, letter) = token.split_at(token.len().checked_sub(1)?);
+    if PATTERN_WORDS.contains(&word) {
+        return Direction::parse(letter);
+    }
+    None
+}
+
+/// Canonical spellings of pattern words (`stock` → `stockinette`), so that the two files of
+/// one fabric (`babyredo_stockxnew`, `babyredo_stockinettey`) get one fabric name.
+const PATTERN_ALIASES: [(&str, &str); 2] = [("stock", "stockinette"), ("moss", "seed")];
+
+/// Splits a measurement file name into its fabric name and test direction. The stem is split
+/// at `-`, `_`, `.` and spaces; trailing version words (`new`, `old`, `v2`, digits) are
+/// dropped, also when glued to the end of the last token (`garterxnew`); then the last token
+/// names the direction ([`direction_token`]: `…-x`, `…_y`, `…-weft`, `…_course`, `…_gartery`,
+/// `…_stockxnew`). The fabric name is the remaining tokens joined by `-`, pattern words in
+/// their canonical spelling (`babyredo_stockxnew` → `babyredo-stockinette`, weft). `None` when
+/// the last token names no direction.
+pub fn split_name(path: &Path) -> Option<(String, Direction)> {
+    let stem = path.file_stem()?.to_str()?.to_ascii_lowercase();
+    let is_version = |t: &str| {
+        matches!(t, "new" | "old" | "final" | "raw")
+            || t.chars().all(|c| c.is_ascii_digit())
+            || (t.len() > 1 && t.starts_with('v') && t[1..].chars().all(|c| c.is_ascii_digit()))
+    };
+    let mut tokens: Vec<&str> = stem
+        .split(['-', '_', '.', ' '])
+        .filter(|t| !t.is_empty())
+        .collect();
+    while tokens.len() > 1 && tokens.last().is_some_and(|t| is_version(t)) {
+        tokens.pop();
+    }
+    let last = tokens.pop()?;
+    let trimmed = ["new", "old"]
+        .iter()
+        .find_map(|v| last.strip_suffix(v).filter(|t| !t.is_empty()))
+        .unwrap_or(last);
+    let direction = direction_token(trimmed)?;
+    let mut name: Vec<&str> = tokens;
+    if Direction::parse(trimmed).is_none()
+        && !matches!(trimmed, "course" | "courses" | "wale" | "wales")
+    {
+        // A pattern word with the direction letter glued on.
+        name.push(&trimmed[..trimmed.len() - 1]);
+    }
+    let name: Vec<&str> = name
+        .into_iter()
+        .map(|t| {
+            PATTERN_ALIASES
+                .iter()
+                .find(|(alias, _)| *alias == t)
+                .map_or(t, |(_, canonical)| canonical)
+        })
+        .collect();
+    Some((name.join("-"), direction))
+}
+
+/// Guesses the direction of a stitch-by-stitch file from its name: [`split_name`], or else a
+/// name containing `weft`, `bias` or `warp` anywhere. `None` when nothing matches (the caller
+/// asks for `DIR=path`).
+pub fn direction_from_name(path: &Path) -> Option<Direction> {
+    if let Some((_, d)) = split_name(path) {
+        return Some(d);
+    }
+    let stem = path.file_stem()?.to_str()?.to_ascii_lowercase();
+    Direction::ALL.into_iter().find(|d| stem.contains(d.name()))
 }
 
 /// Reads a stitch-by-stitch CSV file (see the module docs).
@@ -439,6 +528,55 @@ mod tests {
                 .starts_with("h.csv:1: header lacks column `axial_strain`"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn directions_are_read_from_every_naming_convention() {
+        let cases = [
+            ("acrylic-yarn-garter-x.csv", Some(Direction::Weft)),
+            ("acrylic-yarn-rib-y.csv", Some(Direction::Warp)),
+            ("acrylic-yarn-rib-x-new.csv", Some(Direction::Weft)),
+            ("babyredo_garterxnew.csv", Some(Direction::Weft)),
+            ("babyredo_gartery.csv", Some(Direction::Warp)),
+            ("babyredo_stockxnew.csv", Some(Direction::Weft)),
+            ("babyredo_stockinettey.csv", Some(Direction::Warp)),
+            ("babyredo_ribx.csv", Some(Direction::Weft)),
+            ("babyredo_seedy.csv", Some(Direction::Warp)),
+            ("cotton_moss_course_v2.csv", Some(Direction::Weft)),
+            ("Cotton-Jersey-Wale.csv", Some(Direction::Warp)),
+            ("wool-bias.csv", Some(Direction::Bias)),
+            ("twill_warp_run3.csv", Some(Direction::Warp)),
+            // A word that merely ends in `y` is not a direction.
+            ("babyredo_jersey.csv", None),
+            ("babyredo_sample.csv", None),
+            ("new.csv", None),
+        ];
+        for (name, want) in cases {
+            assert_eq!(direction_from_name(Path::new(name)), want, "{name}");
+        }
+    }
+
+    #[test]
+    fn both_files_of_a_fabric_get_one_name() {
+        let name = |f: &str| split_name(Path::new(f)).map(|(n, _)| n);
+        assert_eq!(
+            name("babyredo_stockxnew.csv"),
+            name("babyredo_stockinettey.csv")
+        );
+        assert_eq!(
+            name("babyredo_stockxnew.csv").unwrap(),
+            "babyredo-stockinette"
+        );
+        assert_eq!(
+            name("acrylic-yarn-rib-x-new.csv"),
+            name("acrylic-yarn-rib-y.csv")
+        );
+        assert_eq!(name("acrylic-yarn-rib-y.csv").unwrap(), "acrylic-yarn-rib");
+        assert_eq!(
+            name("babyredo_garterxnew.csv"),
+            name("babyredo_gartery.csv")
+        );
+        assert_eq!(name("cotton_moss_course_v2.csv").unwrap(), "cotton-seed");
     }
 
     #[test]

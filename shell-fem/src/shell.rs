@@ -306,20 +306,16 @@ impl Shell {
         g
     }
 
-    /// Gradient (length `n_dofs`) of the membrane energy alone, evaluated with `material`
-    /// instead of the shell's own. With a unit parameter vector this is `∂g/∂p_k` (Ψ is linear
-    /// in the parameters).
-    pub fn membrane_gradient_with(&self, x: &[f64], material: Material) -> Vec<f64> {
+    /// `∂(∂E/∂x)/∂p_k` (length `n_dofs`): the derivative of the membrane gradient by in-plane
+    /// parameter `k` (order of [`crate::InPlaneParams::to_array`]), for the adjoint fit.
+    pub fn membrane_param_gradient(&self, x: &[f64], k: usize) -> Vec<f64> {
         let mut g = vec![0.0; x.len()];
         let mut local = [0.0; 9];
-        for (k, m) in self.terms.iter_of::<Membrane>() {
-            let tri = MembraneTriangle {
-                material,
-                ..m.triangle
-            };
-            let q = self.terms.gather(k, x);
-            tri.eval_into(self.dim, &q, &mut local[..q.len()], None);
-            for (l, &d) in self.terms.dofs(k).iter().enumerate() {
+        for (t, m) in self.terms.iter_of::<Membrane>() {
+            let q = self.terms.gather(t, x);
+            m.triangle
+                .param_gradient_into(self.dim, &q, k, &mut local[..q.len()]);
+            for (l, &d) in self.terms.dofs(t).iter().enumerate() {
                 g[d] += local[l];
             }
         }

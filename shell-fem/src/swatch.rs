@@ -141,14 +141,14 @@ pub struct StretchPoint {
     pub iterations: usize,
 }
 
-/// Derivatives of `f_s` and `c` with respect to the six parameters (order of
-/// [`InPlaneParams::to_array`]).
+/// Derivatives of `f_s` and `c` with respect to the in-plane parameters (order of
+/// [`InPlaneParams::to_array`]; zero for parameters the model does not use).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sensitivity {
-    /// `∂f_s/∂p_k` (N per N/m).
-    pub force: [f64; 6],
-    /// `∂c/∂p_k` (per N/m).
-    pub compression: [f64; 6],
+    /// `∂f_s/∂p_k` (N per unit parameter).
+    pub force: [f64; InPlaneParams::LEN],
+    /// `∂c/∂p_k` (per unit parameter).
+    pub compression: [f64; InPlaneParams::LEN],
 }
 
 /// A stretch test that keeps its last equilibrium as a warm start for the next stretch.
@@ -299,7 +299,8 @@ impl StretchTest {
 
     /// Moves the clamp to stretch `s` in load steps of at most `max_step`, halving a step whose
     /// Newton solve fails ([`solver::march`]); every step starts from the previous equilibrium
-    /// stretched affinely.
+    /// stretched affinely. A step that fails with SPD-projected Hessians is retried once with
+    /// the exact Hessian before it is halved.
     /// Errors (never NaN) if a step cannot be completed.
     pub fn solve_to(&mut self, s: f64) -> Result<StretchPoint, ShellError> {
         if !s.is_finite() || s <= -1.0 {
@@ -319,18 +320,30 @@ impl StretchTest {
             for v in 0..self.rest.len() {
                 self.x[2 * v] *= ratio;
             }
-            let detail = match self
-                .solver
-                .minimize(&self.shell, &mut self.x, &self.cfg.newton)
-            {
-                Ok(report) if self.x.iter().all(|v| v.is_finite()) => {
-                    iterations += report.iterations;
-                    self.s = target;
-                    return Ok(());
-                }
-                Err(e) => e.to_string(),
-                Ok(_) => "non-finite positions".into(),
-            };
+            let stretched = self.x.clone();
+            // The configured Newton first; if it fails with SPD-projected Hessians (linear
+            // convergence far from equilibrium in strongly stiffening or near-inverted
+            // states), once more from the same start with the exact Hessian before halving.
+            let mut attempts = vec![self.cfg.newton.clone()];
+            if self.cfg.newton.project_spd {
+                attempts.push(NewtonSettings {
+                    project_spd: false,
+                    ..self.cfg.newton.clone()
+                });
+            }
+            let mut detail = String::new();
+            for settings in &attempts {
+                self.x.copy_from_slice(&stretched);
+                detail = match self.solver.minimize(&self.shell, &mut self.x, settings) {
+                    Ok(report) if self.x.iter().all(|v| v.is_finite()) => {
+                        iterations += report.iterations;
+                        self.s = target;
+                        return Ok(());
+                    }
+                    Err(e) => e.to_string(),
+                    Ok(_) => "non-finite positions".into(),
+                };
+            }
             self.x = backup;
             Err(StepError::Halve(StepFailure(detail)))
         })
@@ -377,7 +390,7 @@ impl StretchTest {
     /// Sensitivities `d f_s/dp` and `dc/dp` of the current equilibrium by the adjoint method:
     /// with `g_f(x, p) = 0` at equilibrium, `dq/dp = ∂q/∂p − λᵀ ∂g_f/∂p` where
     /// `H_ff λ = ∂q/∂x_f` (exact, unprojected Hessian; one sparse LU shared by both outputs).
-    /// `∂g/∂p_k` is the gradient of the energy with unit parameter `e_k` (Ψ is linear in p).
+    /// `∂g/∂p_k` is [`Shell::membrane_param_gradient`].
     pub fn sensitivities(&self) -> Result<Sensitivity, ShellError> {
         let n = self.x.len();
         let mut free_index = vec![usize::MAX; n];
@@ -435,15 +448,14 @@ impl StretchTest {
         }
         lu.solve_in_place(rhs.as_mut());
         let mut out = Sensitivity {
-            force: [0.0; 6],
-            compression: [0.0; 6],
+            force: [0.0; InPlaneParams::LEN],
+            compression: [0.0; InPlaneParams::LEN],
         };
-        for k in 0..6 {
-            let unit = Material {
-                params: InPlaneParams::unit(k),
-                model: self.material.model,
-            };
-            let gk = self.shell.membrane_gradient_with(&self.x, unit);
+        for k in 0..InPlaneParams::LEN {
+            if !self.material.model.uses(k) {
+                continue;
+            }
+            let gk = self.shell.membrane_param_gradient(&self.x, k);
             let (mut lf, mut lc) = (0.0, 0.0);
             for d in 0..n {
                 let f = free_index[d];

@@ -1,5 +1,5 @@
 //! Asserting finite-difference checks of every shell energy term (membrane in 2-D and 3-D for
-//! both material models, edge hinge) on seeded random configurations, and of the assembled
+//! all three material models, edge hinge) on seeded random configurations, and of the assembled
 //! shell through the `solver::Problem` interface.
 
 use nalgebra::SVector;
@@ -7,7 +7,7 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 use rod::fd::{FdOptions, assert_stencil_derivatives, check_gradient};
 use shell_fem::elements::{BendingParams, Hinge, MembraneTriangle};
-use shell_fem::material::{InPlaneParams, Material};
+use shell_fem::material::{InPlaneParams, Material, Model};
 use shell_fem::shell::{Gravity, Shell, ShellOptions, TriMesh};
 use solver::Problem;
 
@@ -25,29 +25,28 @@ const L: f64 = 5e-3;
 
 fn materials() -> impl Strategy<Value = Material> {
     (
-        50.0..800.0f64,
-        -0.4..0.4f64,
-        50.0..800.0f64,
-        10.0..300.0f64,
-        0.0..100.0f64,
-        0.0..100.0f64,
-        any::<bool>(),
+        (50.0..800.0f64, -0.4..0.4f64, 50.0..800.0f64, 10.0..300.0f64),
+        (0.0..100.0f64, 0.0..100.0f64),
+        (0.0..12.0f64, 0.0..12.0f64, 0.0..12.0f64, 0.0..12.0f64),
+        0..3usize,
     )
-        .prop_map(|(kxx, r, kyy, kss, kn1, kn2, aug)| {
-            let params = InPlaneParams {
-                kxx,
-                kxy: r * (kxx * kyy).sqrt(),
-                kyy,
-                kss,
-                kn1,
-                kn2,
-            };
-            if aug {
-                Material::augmented(params)
-            } else {
-                Material::stvk(params)
-            }
-        })
+        .prop_map(
+            |((kxx, r, kyy, kss), (kn1, kn2), (bx, by, cx, cy), model)| Material {
+                params: InPlaneParams {
+                    kxx,
+                    kxy: r * (kxx * kyy).sqrt(),
+                    kyy,
+                    kss,
+                    kn1,
+                    kn2,
+                    bx,
+                    by,
+                    cx,
+                    cy,
+                },
+                model: Model::ALL[model],
+            },
+        )
 }
 
 fn rest_triangle() -> impl Strategy<Value = [[f64; 2]; 3]> {

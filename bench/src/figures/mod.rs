@@ -24,5 +24,6 @@ pub mod rod_cantilever;
 pub mod rod_convergence;
 pub mod shell_bending_fit;
 pub mod shell_fit;
+pub mod shell_fit_all;
 pub mod shell_nh_vs_stvk;
 pub mod shell_time_vs_error;

@@ -101,7 +101,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let measurements = acrylic_measurements(24)?;
     let tg = targets(&measurements, 6);
     let fit_at = |m: (usize, usize)| -> anyhow::Result<(InPlaneParams, f64)> {
-        let mut fixed = [false; 6];
+        let mut fixed = [false; shell_fem::InPlaneParams::LEN];
         fixed[3] = true;
         let cfg = FitConfig {
             swatch: mesh_cfg(m),

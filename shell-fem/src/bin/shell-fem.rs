@@ -6,6 +6,7 @@
 //! shell-fem fit --data tests/data/measurements/acrylic-yarn-stockinette-x.csv \
 //!               --data warp=tests/data/measurements/acrylic-yarn-stockinette-y.csv --out out/
 //! shell-fem curves --params out/params.json --out out/curves
+//! shell-fem fit-all tests/data/measurements --out out/all     # every fabric × model
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -21,7 +22,10 @@ use shell_fem::bending_fit::{
     read_bending_csv, unidentified,
 };
 use shell_fem::curves::TargetCurves;
-use shell_fem::fit::{FitConfig, FitResult, Weighting, fit, initial_guess, targets};
+use shell_fem::fabrics::{FabricFitOptions, discover, fit_fabric, holdout};
+use shell_fem::fit::{
+    ErrorReport, FitConfig, FitResult, Weighting, fit, initial_guess_for, targets,
+};
 use shell_fem::material::{InPlaneParams, Material, Model};
 use shell_fem::measurements::{
     BinOptions, Measurement, direction_from_name, read_direction_csv, read_stitch_csv,
@@ -46,6 +50,8 @@ enum ModelArg {
     Augmented,
     /// Plain anisotropic StVK.
     Stvk,
+    /// Beyond the paper: Eq. 1 with exponential stiffening per direction (rates bx, by).
+    Stiffening,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -61,8 +67,9 @@ enum Command {
     /// Fit {kxx, kxy, kyy, kss, kn1, kn2} to measurements (Eq. 2) and write parameters,
     /// a run manifest, the fit table and the uniform target curves.
     Fit {
-        /// Measurement file: a stitch-by-stitch CSV (direction from the name `…-x.csv` /
-        /// `…-y.csv`, or `DIR=path` with DIR weft|bias|warp) or a `direction,s,f_s,c` CSV.
+        /// Measurement file: a stitch-by-stitch CSV (direction from the name: `…-x.csv`,
+        /// `…_y.csv`, `…-x-new.csv`, `…_garterxnew.csv`, `…-course.csv`, …; or `DIR=path` with
+        /// DIR weft|bias|warp) or a `direction,s,f_s,c` CSV.
         #[arg(long, required = true)]
         data: Vec<String>,
         /// Output directory.
@@ -103,6 +110,38 @@ enum Command {
         #[arg(long, default_value_t = 100.0)]
         kappa_max: f64,
     },
+    /// Fit every fabric of a folder of measurements (files grouped into fabrics by name) with
+    /// each model; write a summary table (paper metric at the targets and at every bin, and a
+    /// held-out extrapolation check), the fits as JSON and each fit's uniform target curves.
+    FitAll {
+        /// Folder of measurement CSVs.
+        dir: PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Models to fit (comma-separated).
+        #[arg(long, value_enum, value_delimiter = ',', default_values_t = [ModelArg::Stvk, ModelArg::Augmented, ModelArg::Stiffening])]
+        models: Vec<ModelArg>,
+        /// Cells along the swatch length (even).
+        #[arg(long, default_value_t = 20)]
+        nx: usize,
+        /// Cells across the swatch width.
+        #[arg(long, default_value_t = 12)]
+        ny: usize,
+        /// Targets per direction.
+        #[arg(long, default_value_t = 6)]
+        targets: usize,
+        /// Strain bins for stitch-by-stitch data.
+        #[arg(long, default_value_t = 24)]
+        bins: usize,
+        /// Maximum Levenberg–Marquardt iterations per fit.
+        #[arg(long, default_value_t = 200)]
+        max_iterations: usize,
+        /// Also fit the lower fraction of each stretch range and report the error above it
+        /// (0 = off).
+        #[arg(long, default_value_t = 0.0)]
+        holdout: f64,
+    },
     /// Uniform target curves {s, c, σ_s} (Eq. 3) from a parameter file.
     Curves {
         /// `params.json` written by `fit`, or a JSON object with kxx … kn2 (N/m).
@@ -127,6 +166,29 @@ fn model(m: ModelArg) -> Model {
     match m {
         ModelArg::Augmented => Model::Augmented,
         ModelArg::Stvk => Model::StVK,
+        ModelArg::Stiffening => Model::Stiffening,
+    }
+}
+
+/// One line per direction and one overall: the paper metric and the per-point relative error.
+fn print_errors(label: &str, e: &ErrorReport) {
+    println!(
+        "{label}: paper metric (error / mean measured datum): force {:.2} %, compression {:.2} % \
+         | mean per-point relative error: force {:.2} %, compression {:.2} %",
+        100.0 * e.force_error,
+        100.0 * e.compression_error,
+        100.0 * e.force_rel_error,
+        100.0 * e.compression_rel_error
+    );
+    for d in &e.directions {
+        println!(
+            "  {}: force {:.2} %, compression {:.2} % | per point: force {:.2} %, compression {:.2} %",
+            d.direction.name(),
+            100.0 * d.force_error,
+            100.0 * d.compression_error,
+            100.0 * d.force_rel_error,
+            100.0 * d.compression_rel_error
+        );
     }
 }
 
@@ -150,7 +212,8 @@ fn load(spec: &str, bins: &BinOptions) -> Result<Vec<Measurement>> {
     if head.contains("axial_strain") {
         let d = dir.or_else(|| direction_from_name(path)).with_context(|| {
             format!(
-                "cannot tell the direction of {}; pass DIR=path",
+                "cannot tell the direction of {} from its name (expected e.g. `…-x.csv`, \
+                 `…_y.csv`, `…-x-new.csv`, `…_garterxnew.csv`, `…-course.csv`); pass DIR=path",
                 path.display()
             )
         })?;
@@ -277,18 +340,16 @@ fn run_fit(
     }
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let tg = targets(&measurements, n_targets);
-    let initial = initial_guess(&measurements, swatch.width);
+    let initial = initial_guess_for(m, &measurements, swatch.width);
     // Without a bias test the shear stiffness is not identifiable: hold it at its guess.
-    let mut fixed = [false; 6];
-    fixed[3] = !dirs.contains(&Direction::Bias);
-    let cfg = FitConfig {
+    let mut cfg = FitConfig {
         swatch,
-        model: m,
         weighting,
-        fixed,
         max_iterations,
-        ..FitConfig::default()
+        ..FitConfig::for_model(m)
     };
+    cfg.fixed[3] = !dirs.contains(&Direction::Bias);
+    let fixed = cfg.fixed;
     let bar = ProgressBar::new(cfg.max_iterations as u64);
     bar.set_style(ProgressStyle::with_template(
         "{spinner} LM {pos}/{len} {msg} [{elapsed}]",
@@ -360,8 +421,7 @@ fn run_fit(
         "termination": result.termination,
         "fit_seconds": result.seconds,
         "total_seconds": start.elapsed().as_secs_f64(),
-        "force_rel_error": result.force_rel_error,
-        "compression_rel_error": result.compression_rel_error,
+        "errors": result.errors,
         "bending": bending_result.as_ref().map(|r| json!({
             "data": bending.data,
             "pear_loop": {"nx": bending.pear_nx, "ny": bending.pear_ny},
@@ -379,22 +439,145 @@ fn run_fit(
         &serde_json::to_string_pretty(&manifest)?,
     )?;
     println!(
-        "fitted {:?}\nmean relative error: force {:.2} %, compression {:.2} % ({} LM iterations, {:.1} s; {})",
-        result.params,
-        100.0 * result.force_rel_error,
-        100.0 * result.compression_rel_error,
-        result.iterations,
-        result.seconds,
-        result.termination
+        "fitted {:?} ({} LM iterations, {:.1} s; {})",
+        result.params, result.iterations, result.seconds, result.termination
     );
-    for e in &result.errors {
-        println!(
-            "  {}: force {:.2} %, compression {:.2} %",
-            e.direction.name(),
-            100.0 * e.force_rel_error,
-            100.0 * e.compression_rel_error
+    print_errors("fit", &result.errors);
+    Ok(())
+}
+
+/// Options of `fit-all`.
+struct FitAllArgs {
+    models: Vec<Model>,
+    opts: FabricFitOptions,
+    bins: usize,
+    holdout: f64,
+}
+
+fn run_fit_all(dir: &Path, out: &Path, args: &FitAllArgs) -> Result<()> {
+    let bin_opts = BinOptions {
+        bins: args.bins,
+        swatch_width: args.opts.swatch.width,
+    };
+    if args.holdout != 0.0 && !(args.holdout > 0.0 && args.holdout < 1.0) {
+        bail!(
+            "--holdout must be 0 (off) or in (0, 1), got {}",
+            args.holdout
         );
     }
+    let fabrics = discover(dir, &bin_opts)?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let bar = ProgressBar::new((fabrics.len() * args.models.len()) as u64);
+    bar.set_style(ProgressStyle::with_template(
+        "{spinner} fit {pos}/{len} {msg} [{elapsed}]",
+    )?);
+    let mut table = String::from(
+        "fabric,model,direction,force_error,compression_error,force_rel_error,compression_rel_error,\
+         bins_force_error,bins_compression_error,holdout_force_error,holdout_compression_error,seconds\n",
+    );
+    let mut fits = Vec::new();
+    for fabric in &fabrics {
+        for &m in &args.models {
+            bar.set_message(format!("{} ({})", fabric.name, m.name()));
+            let f = fit_fabric(fabric, m, &args.opts)
+                .with_context(|| format!("fitting {} with the {} model", fabric.name, m.name()))?;
+            let held = if args.holdout > 0.0 {
+                Some(
+                    holdout(fabric, m, args.holdout, &args.opts).with_context(|| {
+                        format!(
+                            "hold-out fit of {} with the {} model",
+                            fabric.name,
+                            m.name()
+                        )
+                    })?,
+                )
+            } else {
+                None
+            };
+            let e = &f.fit.errors;
+            let nan = f64::NAN;
+            let h = |get: fn(&ErrorReport) -> f64| held.as_ref().map_or(nan, |h| get(&h.held_out));
+            table += &format!(
+                "{},{},all,{},{},{},{},{},{},{},{},{}\n",
+                fabric.name,
+                m.name(),
+                e.force_error,
+                e.compression_error,
+                e.force_rel_error,
+                e.compression_rel_error,
+                f.all_bins.force_error,
+                f.all_bins.compression_error,
+                h(|r| r.force_error),
+                h(|r| r.compression_error),
+                f.fit.seconds
+            );
+            for (d, b) in e.directions.iter().zip(&f.all_bins.directions) {
+                table += &format!(
+                    "{},{},{},{},{},{},{},{},{},,,\n",
+                    fabric.name,
+                    m.name(),
+                    d.direction.name(),
+                    d.force_error,
+                    d.compression_error,
+                    d.force_rel_error,
+                    d.compression_rel_error,
+                    b.force_error,
+                    b.compression_error,
+                );
+            }
+            let material = Material {
+                params: f.fit.params,
+                model: m,
+            };
+            let ranges: Vec<(Direction, f64)> = fabric
+                .measurements
+                .iter()
+                .map(|x| (x.direction, x.s_max()))
+                .collect();
+            let curves = TargetCurves::generate(&material, &ranges, 21, None)?;
+            write(
+                &out.join(format!("{}-{}-curves.csv", fabric.name, m.name())),
+                &curves.to_csv(),
+            )?;
+            bar.suspend(|| {
+                println!(
+                    "{:<28} {:<10} force {:6.2} %  compression {:6.2} %  (all bins {:6.2} % / {:6.2} %{}) {:.1} s",
+                    fabric.name,
+                    m.name(),
+                    100.0 * e.force_error,
+                    100.0 * e.compression_error,
+                    100.0 * f.all_bins.force_error,
+                    100.0 * f.all_bins.compression_error,
+                    held.as_ref().map_or(String::new(), |h| format!(
+                        "; held out above {:.0} %: {:.2} % / {:.2} %",
+                        100.0 * h.fraction,
+                        100.0 * h.held_out.force_error,
+                        100.0 * h.held_out.compression_error
+                    )),
+                    f.fit.seconds
+                );
+            });
+            fits.push(json!({"fit": f, "holdout": held}));
+            bar.inc(1);
+        }
+    }
+    bar.finish_and_clear();
+    write(&out.join("summary.csv"), &table)?;
+    let j = serde_json::Value::Array(fits);
+    write(&out.join("fits.json"), &serde_json::to_string_pretty(&j)?)?;
+    write(
+        &out.join("manifest.json"),
+        &serde_json::to_string_pretty(&json!({
+            "tool": "shell-fem fit-all", "version": env!("CARGO_PKG_VERSION"),
+            "dir": dir, "fabrics": fabrics.iter().map(|f| &f.name).collect::<Vec<_>>(),
+            "models": args.models.iter().map(|m| m.name()).collect::<Vec<_>>(),
+            "targets_per_direction": args.opts.targets, "bins": args.bins,
+            "swatch": {"nx": args.opts.swatch.nx, "ny": args.opts.swatch.ny},
+            "holdout_fraction": args.holdout,
+            "metric": "paper (§5.1): Σ|sim − measured| / Σ|measured| per direction, mean over directions",
+        }))?,
+    )?;
+    println!("wrote {}", out.join("summary.csv").display());
     Ok(())
 }
 
@@ -493,6 +676,34 @@ fn main() -> Result<()> {
                 },
             )
         }
+        Command::FitAll {
+            dir,
+            out,
+            models,
+            nx,
+            ny,
+            targets,
+            bins,
+            max_iterations,
+            holdout,
+        } => run_fit_all(
+            &dir,
+            &out,
+            &FitAllArgs {
+                models: models.into_iter().map(model).collect(),
+                opts: FabricFitOptions {
+                    targets,
+                    swatch: SwatchConfig {
+                        nx,
+                        ny,
+                        ..SwatchConfig::default()
+                    },
+                    max_iterations,
+                },
+                bins,
+                holdout,
+            },
+        ),
         Command::Curves {
             params,
             out,
