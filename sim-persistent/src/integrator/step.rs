@@ -32,7 +32,7 @@ pub(super) fn finish_friction(terms: &mut Potential, q: &[f64], limits: &[f64]) 
 impl Simulator {
     /// Advances the state by one step of length `dt` (module documentation). If the Newton
     /// solve of a step fails, the step is replaced by two half steps, recursively, at most
-    /// [`StepSettings::max_halvings`] times ([`solver::bisect`]); the state only changes on
+    /// [`super::StepSettings::max_halvings`] times ([`solver::bisect`]); the state only changes on
     /// success.
     pub fn step(&mut self) -> Result<StepReport, SimError> {
         let mut report = StepReport {

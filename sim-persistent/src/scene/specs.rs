@@ -317,7 +317,7 @@ fn de_velocity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Er
 }
 
 /// `[[obstacle]]`: a sphere (`centre`, `radius`) or a plane (`point`, `normal`) with an
-/// optional `stiffness` (SI units), checked by [`Scene::parse`] (errors name the entry's
+/// optional `stiffness` (SI units), checked by [`super::Scene::parse`] (errors name the entry's
 /// line).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
