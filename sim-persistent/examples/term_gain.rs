@@ -163,15 +163,10 @@ fn build(config: &Config) -> Result<Simulator, String> {
 /// Counts of the elastic terms per kind (short names), and of the damping terms.
 fn term_counts(sim: &Simulator) -> (String, usize) {
     let mut counts: BTreeMap<TermKind, usize> = BTreeMap::new();
-    for t in sim.static_terms() {
-        *counts.entry(t.kind()).or_default() += 1;
+    for &kind in sim.static_terms().kinds() {
+        *counts.entry(kind).or_default() += 1;
     }
-    let damping = sim
-        .step_potential()
-        .terms
-        .iter()
-        .filter(|t| t.kind() == TermKind::Damping)
-        .count();
+    let damping = sim.step_terms().count(TermKind::Damping);
     let text = counts
         .iter()
         .map(|(k, n)| {

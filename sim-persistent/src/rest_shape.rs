@@ -81,7 +81,7 @@
 //! chart, also for complex ones whose repeat is smaller than that.
 
 use crate::chart::Chart;
-use crate::forces::{ForceSet, build_terms, gradient};
+use crate::forces::{ForceSet, build_terms};
 use crate::integrator::{SimError, Simulator, StepSettings};
 use crate::layout::{Layout, LayoutError, LayoutParams};
 use crate::params::YarnParams;
@@ -335,7 +335,7 @@ pub fn elastic_residual(
     let dofs = DofMap::new(topology);
     let state = State::from_layout(topology, &dofs, layout);
     let terms = build_terms(topology, &dofs, params, &forces, &state.q);
-    let g = gradient(&terms, &state.q, dofs.n_dofs());
+    let g = terms.gradient(&state.q);
     let mut free = vec![true; dofs.n_dofs()];
     for (n, node) in topology.nodes.iter().enumerate() {
         for (s, p) in node.passes.iter().enumerate() {
@@ -393,7 +393,7 @@ pub fn relax_rectangle(
         // The full rest angle ψ₀ (the simulator's own terms start with the ramp's).
         let q = &sim.state().q;
         let terms = build_terms(&topo, sim.dofs(), params, &forces, q);
-        free_norm(&gradient(&terms, q, q.len()), &skip)
+        free_norm(&terms.gradient(q), &skip)
     };
     let (mut steps, mut peak) = (0, 0.0_f64);
     loop {
@@ -449,10 +449,7 @@ pub fn relax_rectangle(
         )));
     }
     // Equilibrium residual of the relaxation's own static terms over the free positions.
-    let final_residual = free_norm(
-        &gradient(sim.static_terms(), &s.q, sim.dofs().n_dofs()),
-        &skip,
-    );
+    let final_residual = free_norm(&sim.static_terms().gradient(&s.q), &skip);
     Ok((
         relaxed,
         RelaxReport {

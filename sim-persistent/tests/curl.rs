@@ -10,8 +10,8 @@
 
 use rod::geometry::V3;
 use sim_persistent::chart::Chart;
+use sim_persistent::forces::ForceSet;
 use sim_persistent::forces::wrapping::StitchWrap;
-use sim_persistent::forces::{ForceSet, Term};
 use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::measure::{EdgeCurl, course_width, edge_curl};
@@ -43,14 +43,14 @@ struct Settled {
 fn wrap_stats(sim: &Simulator) -> (f64, usize, f64) {
     let q = &sim.state().q;
     let (mut sum, mut n, mut collapsed) = (0.0, 0, 0);
-    for t in sim.static_terms() {
-        if let Term::Wrapping(w, d) = t {
-            let x: [f64; 12] = std::array::from_fn(|i| q[d[i]]);
-            // The ramp keeps the sign of the rest angle (the layout angle is ≈ 0).
-            sum += StitchWrap::angle(&x) * w.rest_angle.signum();
-            n += 1;
-            collapsed += usize::from(StitchWrap::weight(&x) < 0.5);
-        }
+    let terms = sim.static_terms();
+    for (k, w) in terms.iter_of::<StitchWrap, 12>() {
+        let d = terms.dofs(k);
+        let x: [f64; 12] = std::array::from_fn(|i| q[d[i]]);
+        // The ramp keeps the sign of the rest angle (the layout angle is ≈ 0).
+        sum += StitchWrap::angle(&x) * w.rest_angle.signum();
+        n += 1;
+        collapsed += usize::from(StitchWrap::weight(&x) < 0.5);
     }
     let n_f = n.max(1) as f64;
     (sum / n_f, n, collapsed as f64 / n_f)

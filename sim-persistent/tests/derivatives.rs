@@ -13,7 +13,7 @@ use sim_persistent::forces::quadratic::Quadratic;
 use sim_persistent::forces::segment_floor::SegmentFloor;
 use sim_persistent::forces::stitch_length::StitchLength;
 use sim_persistent::forces::wrapping::{StitchWrap, rest_angle_sign, wrap_pairs};
-use sim_persistent::forces::{ForceSet, Potential, TermKind, build_terms};
+use sim_persistent::forces::{ForceSet, TermKind, build_terms};
 use sim_persistent::forces::{bending::bending_stencil, stretch::stretch_stencil};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
@@ -284,8 +284,7 @@ fn assembled_potential_of_a_swatch() {
         segment_floor: true,
         ..ForceSet::default()
     };
-    let terms = build_terms(&topo, &dofs, &params, &forces, &rest.q);
-    let pot = Potential::new(dofs.n_dofs(), terms).unwrap();
+    let pot = build_terms(&topo, &dofs, &params, &forces, &rest.q);
     let kinds: Vec<_> = pot
         .energy_by_kind(&rest.q)
         .iter()
@@ -320,11 +319,9 @@ fn assembled_potential_of_a_swatch() {
             ]
         })
         .collect();
-    let floors: Vec<&[usize]> = pot
-        .terms
-        .iter()
-        .filter(|t| t.kind() == TermKind::SegmentFloor)
-        .map(|t| t.dofs())
+    let floors: Vec<&[usize]> = (0..pot.len())
+        .filter(|&k| pot.kind(k) == TermKind::SegmentFloor)
+        .map(|k| pot.dofs(k))
         .collect();
     assert_eq!(floors.len(), segment_u.len());
     for (f, u) in floors.iter().zip(&segment_u) {

@@ -442,13 +442,7 @@ fn return_mapping_leaves_friction_springs_undamped() {
             ..StepSettings::default()
         };
         let sim = simulator(&chart, YarnParams::sweater(), ForceSet::default(), settings);
-        let count = |kind| {
-            sim.step_potential()
-                .terms
-                .iter()
-                .filter(|t| t.kind() == kind)
-                .count()
-        };
+        let count = |kind| sim.static_terms().count(kind) + sim.step_terms().count(kind);
         (count(TermKind::Damping), count(TermKind::Friction), sim)
     };
     let (explicit, friction, mut sim) = damped(0);

@@ -5,7 +5,8 @@
 
 use rod::geometry::V3;
 use sim_persistent::chart::Chart;
-use sim_persistent::forces::{ForceSet, Term};
+use sim_persistent::forces::ForceSet;
+use sim_persistent::forces::friction::AnchoredSpring;
 use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::{CompressionSolver, YarnParams};
@@ -155,13 +156,11 @@ fn crimp_offset_compresses_a_flat_weave_under_tension() {
 fn centre_weft_spring(sim: &Simulator, centre: usize) -> (f64, f64, f64) {
     let dof = sim.dofs().u(centre, 0);
     let u = sim.state().q[dof];
-    sim.static_terms()
-        .iter()
-        .find_map(|t| match t {
-            Term::Friction(s, d) if d[0] == dof => {
-                Some((s.anchor, s.stiffness * (u - s.anchor), u))
-            }
-            _ => None,
+    let terms = sim.static_terms();
+    terms
+        .iter_of::<AnchoredSpring, 1>()
+        .find_map(|(k, s)| {
+            (terms.dofs(k)[0] == dof).then_some((s.anchor, s.stiffness * (u - s.anchor), u))
         })
         .unwrap()
 }

@@ -9,7 +9,7 @@ use rod::Stencil;
 use rod::fd::{FdOptions, assert_stencil_derivatives};
 use sim_persistent::chart::Chart;
 use sim_persistent::forces::loop_contact::{LoopContact, candidate_pairs};
-use sim_persistent::forces::{ForceSet, Term, TermKind, build_terms};
+use sim_persistent::forces::{ForceSet, Potential, TermKind, build_terms};
 use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
@@ -152,22 +152,28 @@ fn swatch_with_loop_contact() {
     };
     assert!(!ForceSet::default().loop_contact, "off by default");
     let terms = build_terms(&topo, &dofs, &params, &on, &q);
-    let contact: Vec<&Term> = terms
-        .iter()
-        .filter(|t| t.kind() == TermKind::LoopContact)
+    let contact: Vec<usize> = (0..terms.len())
+        .filter(|&k| terms.kind(k) == TermKind::LoopContact)
         .collect();
     assert_eq!(contact.len(), candidate_pairs(&topo).len());
-    let energy: f64 = contact.iter().map(|t| t.energy(&q)).sum();
+    let energy: f64 = contact.iter().map(|&k| terms.term_energy(k, &q)).sum();
     assert_eq!(energy, 0.0, "inactive in the default layout");
     let mut squeezed = layout.clone();
     for p in &mut squeezed.positions {
         p.x *= 0.85;
     }
     let qs = State::from_layout(&topo, &dofs, &squeezed).q;
-    let active = contact.iter().filter(|t| t.energy(&qs) > 0.0).count();
+    let active = contact
+        .iter()
+        .filter(|&&k| terms.term_energy(k, &qs) > 0.0)
+        .count();
     assert!(active > 0);
-    let only: Vec<Term> = contact.iter().map(|t| (*t).clone()).collect();
-    let g = sim_persistent::forces::gradient(&only, &qs, dofs.n_dofs());
+    let mut only = Potential::new(dofs.n_dofs());
+    for (k, c) in terms.iter_of::<LoopContact, 6>() {
+        let d: [usize; 6] = terms.dofs(k).try_into().unwrap();
+        only.push(TermKind::LoopContact, *c, d);
+    }
+    let g = only.gradient(&qs);
     let fx = |cols: std::ops::Range<usize>| -> f64 {
         (0..topo.nodes.len())
             .filter(|n| cols.contains(&((n / 4) % 6)))
@@ -176,7 +182,7 @@ fn swatch_with_loop_contact() {
     };
     // The assembled gradient (DOF bookkeeping) against central differences of the summed
     // energy, on every DOF.
-    let energy = |x: &[f64]| only.iter().map(|t| t.energy(x)).sum::<f64>();
+    let energy = |x: &[f64]| only.energy(x);
     let gmax = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let err = rod::fd::check_gradient(energy, &g, &qs, &FdOptions::for_scale(D, gmax))
         .unwrap_or_else(|e| panic!("{e}"));

@@ -9,8 +9,9 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 use rod::Stencil;
 use rod::fd::{FdOptions, assert_stencil_derivatives, check_gradient};
+use sim_persistent::forces::crossing_shear::CrossingShear;
 use sim_persistent::forces::obstacle::{ONSET_FRACTION, Obstacle, ObstacleContact, Shape};
-use sim_persistent::forces::{ForceSet, Term, TermKind};
+use sim_persistent::forces::{ForceSet, TermKind};
 use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
@@ -235,10 +236,7 @@ fn weave_sim(n: usize) -> Simulator {
 }
 
 fn obstacle_terms(sim: &Simulator) -> usize {
-    sim.static_terms()
-        .iter()
-        .filter(|t| t.kind() == TermKind::Obstacle)
-        .count()
+    sim.static_terms().count(TermKind::Obstacle)
 }
 
 /// "No obstacle queries without obstacles": a simulator has no obstacle terms until
@@ -401,14 +399,11 @@ stiffness = 500.0
     let nodes = run.sim.topology().nodes.len();
     assert_eq!(nodes, 12);
     assert_eq!(obstacle_terms(&run.sim), 2 * nodes);
-    let shear: Vec<_> = run
+    let shear: Vec<CrossingShear> = run
         .sim
         .static_terms()
-        .iter()
-        .filter_map(|t| match t {
-            Term::CrossingShear(s, _) => Some(*s),
-            _ => None,
-        })
+        .iter_of::<CrossingShear, 9>()
+        .map(|(_, s)| *s)
         .collect();
     assert_eq!(shear.len(), 4 * 3 * 2);
     assert!(
@@ -421,12 +416,7 @@ stiffness = 500.0
         .unwrap()
         .build()
         .unwrap();
-    assert!(
-        off.sim
-            .static_terms()
-            .iter()
-            .all(|t| t.kind() != TermKind::CrossingShear)
-    );
+    assert!(off.sim.static_terms().count(TermKind::CrossingShear) == 0);
     // Without [[obstacle]] tables: no obstacle terms.
     let plain = parse(HEADER).unwrap().build().unwrap();
     assert_eq!(obstacle_terms(&plain.sim), 0);
@@ -459,6 +449,10 @@ fn malformed_scene_obstacles_name_the_line() {
             "center",
         ),
         ("[crossing_shear]\njamming_angle = 3.0\n", "angle"),
+        (
+            "[[obstacle]]\nkind = \"sphere\"\ncentre = [0.0, 0.0, 0.0]\nradius = 0.01\nsticky = \"yes\"\n",
+            "bool",
+        ),
     ];
     let first = HEADER.lines().count() + 1;
     for (body, word) in cases {
@@ -489,5 +483,47 @@ fn malformed_scene_obstacles_name_the_line() {
             assert!(message.contains("radius"), "{message}");
         }
         other => panic!("expected a located error, got {other:?}"),
+    }
+}
+
+/// `sticky = true` on an obstacle pins every node that touches it at the end of a step where
+/// it is; without it (or with `sticky = false`) nothing is pinned.
+#[test]
+fn sticky_obstacles_pin_touching_nodes() {
+    let probe = parse(HEADER).unwrap().build().unwrap();
+    let x0 = probe.sim.dofs().position(&probe.sim.state().q, 0);
+    // A sphere whose top touches node 0 from below.
+    let radius = 0.01;
+    let scene = |sticky: &str| {
+        let text = format!(
+            "{HEADER}[forces]\ngravity = false\n\n[[obstacle]]\nkind = \"sphere\"\n\
+             centre = [{}, {}, {}]\nradius = {radius}\n{sticky}",
+            x0.x,
+            x0.y,
+            x0.z - radius,
+        );
+        let mut run = parse(&text).unwrap().build().unwrap();
+        run.step().unwrap();
+        run
+    };
+    let run = scene("sticky = true\n");
+    let held: Vec<usize> = (0..run.sticky.contacts.held.len())
+        .filter(|&n| run.sticky.contacts.held[n])
+        .collect();
+    assert!(held.contains(&0), "{held:?}");
+    assert!(held.len() < run.sim.topology().nodes.len());
+    for &n in &held {
+        let x = run.sim.dofs().x(n);
+        assert!(
+            (x..x + 3).all(|i| run.sim.fixed()[i]),
+            "node {n} not pinned"
+        );
+    }
+    assert_eq!(run.sticky.contacts.first, Some(run.sim.time()));
+    for text in ["sticky = false\n", ""] {
+        let run = scene(text);
+        assert!(run.sticky.obstacles.is_empty());
+        assert!(run.sticky.contacts.held.iter().all(|&h| !h));
+        assert!(!run.sim.fixed()[run.sim.dofs().x(0)]);
     }
 }

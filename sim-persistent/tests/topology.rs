@@ -137,8 +137,7 @@ fn layout_starts_unstretched_below_jamming_with_knit_purl_signs() {
     let layout = Layout::new(&topo, &lp).unwrap();
     let dofs = DofMap::new(&topo);
     let state = State::from_layout(&topo, &dofs, &layout);
-    let terms = build_terms(&topo, &dofs, &params, &ForceSet::default(), &state.q);
-    let pot = Potential::new(dofs.n_dofs(), terms).unwrap();
+    let pot = build_terms(&topo, &dofs, &params, &ForceSet::default(), &state.q);
     for (kind, e) in pot.energy_by_kind(&state.q) {
         match kind {
             TermKind::Stretch | TermKind::StitchLength | TermKind::Friction => {
@@ -191,8 +190,7 @@ fn layout_starts_unstretched_below_jamming_with_knit_purl_signs() {
 /// terms for a weave (no stitch contacts).
 #[test]
 fn only_needed_terms_are_built() {
-    use sim_persistent::forces::Term;
-    let count = |terms: &[Term], kind: TermKind| terms.iter().filter(|t| t.kind() == kind).count();
+    let count = |terms: &Potential, kind: TermKind| terms.count(kind);
     let chart = Chart::garter(3, 3).unwrap();
     let topo = Topology::knit(&chart);
     let dofs = DofMap::new(&topo);

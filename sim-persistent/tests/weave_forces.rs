@@ -11,7 +11,7 @@ use rod::Stencil;
 use rod::fd::{FdOptions, assert_stencil_derivatives, check_gradient, check_hessian};
 use sim_persistent::chart::Chart;
 use sim_persistent::forces::crossing_shear::{CrossingShear, CrossingShearParams, quadrants};
-use sim_persistent::forces::{ForceSet, Potential, Term, TermKind, build_terms};
+use sim_persistent::forces::{ForceSet, TermKind, build_terms};
 use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
@@ -212,12 +212,11 @@ fn crossing_shear_terms_only_for_weaves_with_the_flag() {
         let dofs = DofMap::new(topo);
         let q = State::from_layout(topo, &dofs, &layout).q;
         let terms = build_terms(topo, &dofs, &params, forces, &q);
-        let shear: Vec<&Term> = terms
-            .iter()
-            .filter(|t| t.kind() == TermKind::CrossingShear)
+        let shear: Vec<usize> = (0..terms.len())
+            .filter(|&k| terms.kind(k) == TermKind::CrossingShear)
             .collect();
-        let g = sim_persistent::forces::gradient(&terms, &q, dofs.n_dofs());
-        let energy: f64 = shear.iter().map(|t| t.energy(&q)).sum();
+        let g = terms.gradient(&q);
+        let energy: f64 = shear.iter().map(|&k| terms.term_energy(k, &q)).sum();
         (
             shear.len(),
             energy,
@@ -258,8 +257,7 @@ fn assembled_weave_potential() {
     let layout = Layout::new(&topo, &LayoutParams::new(W, params.radius)).unwrap();
     let dofs = DofMap::new(&topo);
     let rest = State::from_layout(&topo, &dofs, &layout);
-    let terms = build_terms(&topo, &dofs, &params, &ForceSet::default(), &rest.q);
-    let pot = Potential::new(dofs.n_dofs(), terms).unwrap();
+    let pot = build_terms(&topo, &dofs, &params, &ForceSet::default(), &rest.q);
     let mut q = rest.q.clone();
     for n in 0..topo.nodes.len() {
         let i = dofs.x(n);

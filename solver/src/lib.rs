@@ -96,4 +96,4 @@ pub use newton::{
 };
 pub use pcg::{Pcg, PcgFailure, PcgReport, PcgSettings, Preconditioner};
 pub use roots::{Bracket, Root, RootError, RootEval, RootReport, RootSettings, find_root};
-pub use terms::{LocalEnergy, LocalVector, MAX_TERM_DOFS, RodTerm, Terms};
+pub use terms::{CloneTerm, Concat, LocalEnergy, LocalVector, MAX_TERM_DOFS, RodTerm, Terms};

@@ -12,9 +12,13 @@
 //! Terms are evaluated through one dynamic call each; the local vector is gathered on the
 //! stack (at most [`MAX_TERM_DOFS`] entries), so evaluations do not allocate. Typed access to
 //! the stored terms (changing a material, moving an anchor) is by downcast
-//! ([`Terms::get_mut`], [`Terms::iter_mut_of`]).
+//! ([`Terms::get_mut`], [`Terms::iter_mut_of`], [`Terms::par_iter_mut`] for parallel
+//! per-step updates). Terms are `Clone` (hence [`Terms`] is), and two problems on the same
+//! DOFs chain into one with [`Concat`] (e.g. a model's fixed terms followed by per-step ones).
 
 use std::any::Any;
+
+use rayon::prelude::*;
 
 use crate::Problem;
 
@@ -24,8 +28,9 @@ pub const MAX_TERM_DOFS: usize = 64;
 /// An energy term on a local DOF vector `q` of [`LocalEnergy::n_local`] entries (object safe).
 ///
 /// Energies are in J; the gradient is `∂W/∂q`, the Hessian `∂²W/∂q²` (column-major,
-/// symmetric). [`RodTerm`] implements it for every [`rod::Stencil<N>`].
-pub trait LocalEnergy: Any + Send + Sync {
+/// symmetric). [`RodTerm`] implements it for every [`rod::Stencil<N>`]. Terms are `Clone`
+/// ([`CloneTerm`] comes with it).
+pub trait LocalEnergy: Any + Send + Sync + CloneTerm {
     /// Number of local DOFs `q.len()`.
     fn n_local(&self) -> usize;
 
@@ -36,6 +41,67 @@ pub trait LocalEnergy: Any + Send + Sync {
     /// the Hessian into `hess` (`n_local²`, column-major). Without `hess`, implementations
     /// should skip the Hessian's cost.
     fn local_eval(&self, q: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64;
+
+    /// [`LocalEnergy::local_eval`] at `q = x[dofs] (+ offset)`. The default gathers `q` into a
+    /// [`LocalVector`]; implementations may gather straight into their own storage (the same
+    /// values, so the same result).
+    fn eval_at(
+        &self,
+        x: &[f64],
+        dofs: &[usize],
+        offset: Option<&[f64]>,
+        grad: &mut [f64],
+        hess: Option<&mut [f64]>,
+    ) -> f64 {
+        self.local_eval(&LocalVector::gather(x, dofs, offset), grad, hess)
+    }
+
+    /// [`LocalEnergy::local_energy`] at `q = x[dofs] (+ offset)` (see [`LocalEnergy::eval_at`]).
+    fn energy_at(&self, x: &[f64], dofs: &[usize], offset: Option<&[f64]>) -> f64 {
+        self.local_energy(&LocalVector::gather(x, dofs, offset))
+    }
+}
+
+/// Boxed copies of terms: implemented for every `Clone` [`LocalEnergy`] (nothing to write).
+pub trait CloneTerm {
+    /// A boxed copy of the term.
+    fn clone_term(&self) -> Box<dyn LocalEnergy>;
+}
+
+impl<T: LocalEnergy + Clone> CloneTerm for T {
+    fn clone_term(&self) -> Box<dyn LocalEnergy> {
+        Box::new(self.clone())
+    }
+}
+
+impl dyn LocalEnergy {
+    /// Whether the term is a `T`.
+    pub fn is<T: LocalEnergy>(&self) -> bool {
+        (self as &dyn Any).is::<T>()
+    }
+
+    /// The term as a `T`, if it is one.
+    pub fn downcast_ref<T: LocalEnergy>(&self) -> Option<&T> {
+        (self as &dyn Any).downcast_ref()
+    }
+
+    /// The term as a mutable `T`, if it is one.
+    pub fn downcast_mut<T: LocalEnergy>(&mut self) -> Option<&mut T> {
+        (self as &mut dyn Any).downcast_mut()
+    }
+}
+
+/// `q_i = x[dofs_i] (+ offset_i)` as a fixed-size vector (the bits of [`LocalVector::gather`]).
+fn gather_fixed<const N: usize>(
+    x: &[f64],
+    dofs: &[usize],
+    offset: Option<&[f64]>,
+) -> nalgebra::SVector<f64, N> {
+    debug_assert_eq!(dofs.len(), N);
+    match offset {
+        Some(o) => nalgebra::SVector::from_fn(|i, _| x[dofs[i]] + o[i]),
+        None => nalgebra::SVector::from_fn(|i, _| x[dofs[i]]),
+    }
 }
 
 /// A [`rod::Stencil<N>`] as a [`LocalEnergy`]: `q` is converted to the stencil's fixed-size
@@ -56,7 +122,36 @@ impl<S, const N: usize> std::ops::DerefMut for RodTerm<S, N> {
     }
 }
 
-impl<S: rod::Stencil<N> + Send + Sync + 'static, const N: usize> LocalEnergy for RodTerm<S, N> {
+impl<S, const N: usize> RodTerm<S, N> {
+    fn eval_fixed(
+        stencil: &S,
+        q: &nalgebra::SVector<f64, N>,
+        grad: &mut [f64],
+        hess: Option<&mut [f64]>,
+    ) -> f64
+    where
+        S: rod::Stencil<N>,
+    {
+        match hess {
+            Some(h) => {
+                let e = stencil.eval(q);
+                grad.copy_from_slice(e.gradient.as_slice());
+                h.copy_from_slice(e.hessian.as_slice());
+                e.energy
+            }
+            None => {
+                let (energy, gradient) = stencil.energy_and_gradient(q);
+                grad.copy_from_slice(gradient.as_slice());
+                energy
+            }
+        }
+    }
+}
+
+impl<S, const N: usize> LocalEnergy for RodTerm<S, N>
+where
+    S: rod::Stencil<N> + Clone + Send + Sync + 'static,
+{
     fn n_local(&self) -> usize {
         N
     }
@@ -66,20 +161,27 @@ impl<S: rod::Stencil<N> + Send + Sync + 'static, const N: usize> LocalEnergy for
     }
 
     fn local_eval(&self, q: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
-        let q = nalgebra::SVector::<f64, N>::from_column_slice(q);
-        match hess {
-            Some(h) => {
-                let e = self.0.eval(&q);
-                grad.copy_from_slice(e.gradient.as_slice());
-                h.copy_from_slice(e.hessian.as_slice());
-                e.energy
-            }
-            None => {
-                let (energy, gradient) = self.0.energy_and_gradient(&q);
-                grad.copy_from_slice(gradient.as_slice());
-                energy
-            }
-        }
+        Self::eval_fixed(
+            &self.0,
+            &nalgebra::SVector::from_column_slice(q),
+            grad,
+            hess,
+        )
+    }
+
+    fn eval_at(
+        &self,
+        x: &[f64],
+        dofs: &[usize],
+        offset: Option<&[f64]>,
+        grad: &mut [f64],
+        hess: Option<&mut [f64]>,
+    ) -> f64 {
+        Self::eval_fixed(&self.0, &gather_fixed(x, dofs, offset), grad, hess)
+    }
+
+    fn energy_at(&self, x: &[f64], dofs: &[usize], offset: Option<&[f64]>) -> f64 {
+        self.0.energy(&gather_fixed(x, dofs, offset))
     }
 }
 
@@ -145,6 +247,18 @@ pub struct Terms {
     offsets: Vec<f64>,
 }
 
+impl Clone for Terms {
+    fn clone(&self) -> Self {
+        Self {
+            n_dofs: self.n_dofs,
+            terms: self.terms.iter().map(|t| t.clone_term()).collect(),
+            ranges: self.ranges.clone(),
+            dofs: self.dofs.clone(),
+            offsets: self.offsets.clone(),
+        }
+    }
+}
+
 impl std::fmt::Debug for Terms {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Terms")
@@ -190,7 +304,7 @@ impl Terms {
     /// Appends a [`rod::Stencil<N>`] (wrapped in [`RodTerm`]) on `dofs`; returns its index.
     pub fn push_stencil<S, const N: usize>(&mut self, stencil: S, dofs: [usize; N]) -> usize
     where
-        S: rod::Stencil<N> + Send + Sync + 'static,
+        S: rod::Stencil<N> + Clone + Send + Sync + 'static,
     {
         self.push(RodTerm(stencil), &dofs)
     }
@@ -213,6 +327,11 @@ impl Terms {
     /// Term `k`.
     pub fn term(&self, k: usize) -> &dyn LocalEnergy {
         &*self.terms[k]
+    }
+
+    /// Term `k`, mutably (its type and DOFs stay; downcast to change it).
+    pub fn term_mut(&mut self, k: usize) -> &mut dyn LocalEnergy {
+        &mut *self.terms[k]
     }
 
     /// Global DOFs of term `k`.
@@ -259,6 +378,48 @@ impl Terms {
             .filter_map(|(k, t)| Some((k, (&mut **t as &mut dyn Any).downcast_mut::<T>()?)))
     }
 
+    /// Every term of type `T`, mutably, with its index and global DOFs, in order.
+    pub fn iter_mut_with_dofs_of<T: LocalEnergy>(
+        &mut self,
+    ) -> impl Iterator<Item = (usize, &mut T, &[usize])> {
+        let (dofs, ranges) = (&self.dofs, &self.ranges);
+        self.terms.iter_mut().enumerate().filter_map(move |(k, t)| {
+            let term = (&mut **t as &mut dyn Any).downcast_mut::<T>()?;
+            Some((k, term, &dofs[ranges[k]..ranges[k + 1]]))
+        })
+    }
+
+    /// Every term, mutably, in order, as a parallel iterator (per-step updates of many
+    /// independent terms; downcast each with [`LocalEnergy`]'s `downcast_mut`).
+    pub fn par_iter_mut(
+        &mut self,
+    ) -> impl IndexedParallelIterator<Item = &mut (dyn LocalEnergy + 'static)> {
+        self.terms.par_iter_mut().map(|t| &mut **t)
+    }
+
+    /// Moves every term of `other` (same number of global DOFs) to the end of `self`, in
+    /// order.
+    ///
+    /// # Panics
+    /// If the two containers have different numbers of DOFs.
+    pub fn append(&mut self, other: Terms) {
+        assert_eq!(self.n_dofs, other.n_dofs, "appended terms on other DOFs");
+        if !other.offsets.is_empty() && self.offsets.is_empty() {
+            self.offsets = vec![0.0; self.dofs.len()];
+        }
+        let base = self.dofs.len();
+        self.dofs.extend_from_slice(&other.dofs);
+        self.ranges
+            .extend(other.ranges[1..].iter().map(|r| base + r));
+        if !self.offsets.is_empty() {
+            match other.offsets.is_empty() {
+                true => self.offsets.resize(self.dofs.len(), 0.0),
+                false => self.offsets.extend_from_slice(&other.offsets),
+            }
+        }
+        self.terms.extend(other.terms);
+    }
+
     /// The local vector `q = x[dofs] + offset` of term `k`.
     pub fn gather(&self, k: usize, x: &[f64]) -> LocalVector {
         LocalVector::gather(x, self.dofs(k), self.offset(k))
@@ -279,11 +440,85 @@ impl Problem for Terms {
     }
 
     fn eval_stencil(&self, k: usize, x: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
-        self.terms[k].local_eval(&self.gather(k, x), grad, hess)
+        self.terms[k].eval_at(x, self.dofs(k), self.offset(k), grad, hess)
     }
 
     fn stencil_energy(&self, k: usize, x: &[f64]) -> f64 {
-        self.terms[k].local_energy(&self.gather(k, x))
+        self.terms[k].energy_at(x, self.dofs(k), self.offset(k))
+    }
+}
+
+/// Two problems on the same DOFs as one: the stencils of `first`, then those of `second`
+/// (so the sums run in that order), e.g. a model's fixed terms followed by the per-step
+/// terms of an implicit time step.
+#[derive(Clone, Copy, Debug)]
+pub struct Concat<'a, A: ?Sized, B: ?Sized> {
+    first: &'a A,
+    second: &'a B,
+    n_first: usize,
+}
+
+impl<'a, A: Problem + ?Sized, B: Problem + ?Sized> Concat<'a, A, B> {
+    /// `first` followed by `second`.
+    ///
+    /// # Panics
+    /// If the two problems have different numbers of DOFs.
+    pub fn new(first: &'a A, second: &'a B) -> Self {
+        assert_eq!(
+            first.n_dofs(),
+            second.n_dofs(),
+            "concatenated problems on other DOFs"
+        );
+        Self {
+            first,
+            second,
+            n_first: first.n_stencils(),
+        }
+    }
+
+    /// The first problem.
+    pub fn first(&self) -> &'a A {
+        self.first
+    }
+
+    /// The second problem.
+    pub fn second(&self) -> &'a B {
+        self.second
+    }
+}
+
+impl<A: Problem + ?Sized, B: Problem + ?Sized> Problem for Concat<'_, A, B> {
+    fn n_dofs(&self) -> usize {
+        self.first.n_dofs()
+    }
+
+    fn n_stencils(&self) -> usize {
+        self.n_first + self.second.n_stencils()
+    }
+
+    fn stencil_dofs(&self, k: usize) -> &[usize] {
+        match k.checked_sub(self.n_first) {
+            None => self.first.stencil_dofs(k),
+            Some(j) => self.second.stencil_dofs(j),
+        }
+    }
+
+    fn eval_stencil(&self, k: usize, x: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        match k.checked_sub(self.n_first) {
+            None => self.first.eval_stencil(k, x, grad, hess),
+            Some(j) => self.second.eval_stencil(j, x, grad, hess),
+        }
+    }
+
+    fn stencil_energy(&self, k: usize, x: &[f64]) -> f64 {
+        match k.checked_sub(self.n_first) {
+            None => self.first.stencil_energy(k, x),
+            Some(j) => self.second.stencil_energy(j, x),
+        }
+    }
+
+    fn max_step(&self, x: &[f64], dx: &[f64]) -> f64 {
+        self.first.max_step(x, dx).min(self.second.max_step(x, dx))
     }
 }
 
@@ -318,6 +553,7 @@ mod tests {
     }
 
     /// A linear load `W = c q` written directly against [`LocalEnergy`].
+    #[derive(Clone)]
     struct Linear(f64);
 
     impl LocalEnergy for Linear {
@@ -425,6 +661,66 @@ mod tests {
                 .map(|(k, _)| k)
                 .collect::<Vec<_>>(),
             [2]
+        );
+    }
+
+    #[test]
+    fn clone_append_and_mutable_access_keep_terms_and_dofs() {
+        let x = x0();
+        let whole = two_terms();
+        let mut first = Terms::new(7);
+        first.push_stencil(segment(), [0, 1, 2, 4, 5, 6]);
+        let mut rest = Terms::new(7);
+        rest.push_stencil(
+            Quadratic2 {
+                a: [2.0, 0.5, 1.5],
+                b: [0.3, -0.2],
+            },
+            [6, 3],
+        );
+        rest.push(Linear(-0.4), &[2]);
+        rest.offset_mut(1)[0] = 0.25;
+        let copy = first.clone();
+        first.append(rest.clone());
+        assert_eq!(first.len(), 3);
+        assert_eq!(copy.len(), 1);
+        for k in 0..3 {
+            assert_eq!(first.dofs(k), whole.dofs(k));
+        }
+        assert_eq!(first.offset(0), Some([0.0; 6].as_slice()));
+        assert_eq!(first.offset(2), Some([0.25].as_slice()));
+        assert_eq!(first.stencil_energy(0, &x), whole.stencil_energy(0, &x));
+        assert_eq!(first.stencil_energy(2, &x), -0.4 * (x[2] + 0.25));
+        // Concat: the same stencils in the same order as the appended container.
+        let chained = Concat::new(&copy, &rest);
+        assert_eq!(chained.n_stencils(), 3);
+        for k in 0..3 {
+            assert_eq!(chained.stencil_dofs(k), first.dofs(k));
+            assert_eq!(chained.stencil_energy(k, &x), first.stencil_energy(k, &x));
+        }
+        let mut asm = Assembler::new(&chained).unwrap();
+        let a = asm.assemble(&chained, &x, true).unwrap().gradient.to_vec();
+        let mut asm = Assembler::new(&first).unwrap();
+        assert_eq!(
+            asm.assemble(&first, &x, true).unwrap().gradient,
+            a.as_slice()
+        );
+        // Mutable access, with DOFs and in parallel.
+        for (k, s, d) in first.iter_mut_with_dofs_of::<RodTerm<Segment, 6>>() {
+            assert_eq!((k, d), (0, [0, 1, 2, 4, 5, 6].as_slice()));
+            s.rest_length = 0.9;
+        }
+        first.par_iter_mut().for_each(|t| {
+            if let Some(l) = t.downcast_mut::<Linear>() {
+                l.0 = 1.0;
+            }
+        });
+        assert!(first.term(2).is::<Linear>());
+        assert_eq!(first.term(2).downcast_ref::<Linear>().unwrap().0, 1.0);
+        assert_eq!(copy.get::<RodTerm<Segment, 6>>(0).unwrap().rest_length, 0.7);
+        assert_eq!(
+            first.get::<RodTerm<Segment, 6>>(0).unwrap().rest_length,
+            0.9
         );
     }
 

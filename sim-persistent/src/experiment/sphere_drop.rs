@@ -43,7 +43,7 @@ use super::drape::{DrapeSample, corners, projected_area, yarn_length};
 use super::swatch::{LOOP_WIDTH, SwatchSettings, positions, run_steps};
 use crate::forces::obstacle::{Obstacle, Shape};
 use crate::forces::{ForceSet, TermKind};
-use crate::integrator::Simulator;
+use crate::integrator::{SimError, Simulator};
 use crate::layout::{Layout, LayoutParams};
 use crate::topology::Topology;
 
@@ -292,7 +292,7 @@ impl StickyContacts {
         sim: &mut Simulator,
         touching: &[usize],
         time: f64,
-    ) -> anyhow::Result<()> {
+    ) -> Result<(), SimError> {
         let new: Vec<usize> = touching
             .iter()
             .copied()
@@ -357,12 +357,7 @@ pub fn drop_pattern(name: &str, topo: Topology, setup: &DropSetup) -> anyhow::Re
         p.iter().all(|v| v.iter().all(|c| c.is_finite())),
         "{name}: non-finite positions after the drop"
     );
-    let obstacle_terms = drop
-        .sim
-        .static_terms()
-        .iter()
-        .filter(|t| t.kind() == TermKind::Obstacle)
-        .count();
+    let obstacle_terms = drop.sim.static_terms().count(TermKind::Obstacle);
     Ok(Dropped {
         name: name.to_string(),
         samples,

@@ -64,13 +64,16 @@
 //!   ([`crate::integrator`]).
 
 use crate::chart::Chart;
-use crate::forces::Term;
+use crate::forces::wrapping::StitchWrap;
+use crate::forces::{Potential, TermKind};
 use crate::params::{CompressionSettings, CompressionSolver};
 use crate::state::{DofMap, gather};
 use crate::topology::{FabricKind, Side, Topology, knit_node};
 use nalgebra::{DMatrix, DVector, Matrix3};
 use rod::Stencil;
+use rod::bending::AngleBending;
 use rod::geometry::V3;
+use rod::stretch::SlidingSegment;
 
 /// Largest number of contacts in a stack that [`CompressionSystem::nnls`] enumerates
 /// (`2^12` active sets).
@@ -368,7 +371,7 @@ impl CompressionEstimator {
     /// (normally the simulator's static terms), yarn radius `radius` (m; crimp offset).
     pub fn estimate(
         &self,
-        terms: &[Term],
+        terms: &Potential,
         q: &[f64],
         dofs: &DofMap,
         radius: f64,
@@ -418,9 +421,12 @@ impl CompressionEstimator {
             }
         };
         let block = |g: &[f64], i: usize| V3::new(g[i], g[i + 1], g[i + 2]);
-        for term in terms {
-            match term {
-                Term::Stretch(s, d) => {
+        for k in 0..terms.len() {
+            let d = terms.dofs(k);
+            match terms.kind(k) {
+                TermKind::Stretch => {
+                    let s = terms.get::<SlidingSegment, 8>(k).expect("stretch stencil");
+                    let d: &[usize; 8] = d.try_into().expect("8 DOFs");
                     let local = gather(q, d);
                     let (_, g) = s.energy_and_gradient(&local);
                     let ends = [self.owner[d[3]], self.owner[d[7]]];
@@ -439,14 +445,18 @@ impl CompressionEstimator {
                     add(n0, s0, -tension * off);
                     add(n1, s1, tension * off);
                 }
-                Term::Bending(s, d) => {
+                TermKind::Bending => {
+                    let s = terms.get::<AngleBending, 12>(k).expect("bending stencil");
+                    let d: &[usize; 12] = d.try_into().expect("12 DOFs");
                     let (_, g) = s.energy_and_gradient(&gather(q, d));
                     for e in 0..3 {
                         let (n, slot) = self.owner[d[4 * e + 3]];
                         add(n, slot, block(g.as_slice(), 4 * e));
                     }
                 }
-                Term::Wrapping(s, d) => {
+                TermKind::Wrapping => {
+                    let s = terms.get::<StitchWrap, 12>(k).expect("wrapping stencil");
+                    let d: &[usize; 12] = d.try_into().expect("12 DOFs");
                     let (_, g) = s.energy_and_gradient(&gather(q, d));
                     let node = |k: usize| self.owner[d[3 * k]].0;
                     // Wings (q₀, q₄) and (q₁, q₃): blocks (0, 2) and (1, 3).

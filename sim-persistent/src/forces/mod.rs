@@ -1,7 +1,9 @@
 //! Force terms (seed 000 §4), one file each, and the [`Potential`] that sums them.
 //!
 //! Every term is a `rod::Stencil` (energy, gradient and exact Hessian on a fixed-size DOF
-//! vector) placed on the global coordinates by its DOF indices ([`crate::state::DofMap`]):
+//! vector) placed on the global coordinates by its DOF indices ([`crate::state::DofMap`]) in
+//! a [`solver::Terms`] container ([`Potential`] adds each term's [`TermKind`]); adding a
+//! term is one new file, one [`TermKind`] and one `push` in [`build_terms`]:
 //!
 //! | term | file | stencil DOFs | source |
 //! |---|---|---|---|
@@ -35,18 +37,15 @@ pub mod stretch;
 pub mod wrapping;
 
 use crate::params::YarnParams;
-use crate::state::{DofMap, gather};
+use crate::state::DofMap;
 use crate::topology::{FabricKind, Topology};
-use crossing_shear::{CrossingShear, CrossingShearParams};
+use crossing_shear::CrossingShearParams;
 use friction::AnchoredSpring;
 use gravity::Gravity;
 use loop_contact::LoopContact;
-use obstacle::ObstacleContact;
-use quadratic::Quadratic;
 use rod::Stencil;
-use rod::bending::AngleBending;
-use rod::stretch::SlidingSegment;
 use segment_floor::SegmentFloor;
+use solver::{RodTerm, Terms};
 use stitch_length::StitchLength;
 use wrapping::StitchWrap;
 
@@ -104,7 +103,7 @@ impl Default for ForceSet {
     }
 }
 
-/// The kind of a [`Term`] (for per-term energy shares).
+/// The kind of a term of a [`Potential`] (for per-term energy shares).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum TermKind {
     /// Gravity.
@@ -133,224 +132,187 @@ pub enum TermKind {
     Damping,
 }
 
-/// One stencil with its global DOF indices.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Term {
-    /// Gravity on a segment.
-    Gravity(Gravity, [usize; 8]),
-    /// Stretch of a segment.
-    Stretch(SlidingSegment, [usize; 8]),
-    /// Bending at an interior pass.
-    Bending(AngleBending, [usize; 12]),
-    /// Stitch-contact length of one yarn.
-    StitchLength(StitchLength, [usize; 2]),
-    /// Friction spring of one sliding coordinate.
-    Friction(AnchoredSpring, [usize; 1]),
-    /// Stitch wrapping of one pair of opposite segments (positions of `q₀, q₁, q₄, q₃`).
-    Wrapping(StitchWrap, [usize; 12]),
-    /// Shear of one crossing quadrant (positions of the weft neighbour, the crossing node
-    /// and the warp neighbour).
-    CrossingShear(CrossingShear, [usize; 9]),
-    /// Penalty contact of one node with one obstacle (its position).
-    Obstacle(ObstacleContact, [usize; 3]),
-    /// Contact penalty of one pair of nodes on adjacent loops (their positions).
-    LoopContact(LoopContact, [usize; 6]),
-    /// Material-length floor of one segment (its two sliding coordinates).
-    SegmentFloor(SegmentFloor, [usize; 2]),
-    /// Inertia of a segment (boxed: the per-step matrices dwarf the other variants).
-    Inertia(Box<Quadratic<8>>, [usize; 8]),
-    /// Stiffness damping of a 1-DOF term.
-    Damping1(Box<Quadratic<1>>, [usize; 1]),
-    /// Stiffness damping of a 2-DOF term.
-    Damping2(Box<Quadratic<2>>, [usize; 2]),
-    /// Stiffness damping of an 8-DOF term.
-    Damping8(Box<Quadratic<8>>, [usize; 8]),
-    /// Stiffness damping of a 12-DOF term.
-    Damping12(Box<Quadratic<12>>, [usize; 12]),
-    /// Stiffness damping of a 9-DOF term (crossing shear).
-    Damping9(Box<Quadratic<9>>, [usize; 9]),
-}
-
-/// Runs `$body` with `$s` bound to the stencil and `$d` to its DOF array, for any variant.
-macro_rules! with_stencil {
-    ($term:expr, $s:ident, $d:ident => $body:expr) => {
-        match $term {
-            Term::Gravity($s, $d) => $body,
-            Term::Stretch($s, $d) => $body,
-            Term::Bending($s, $d) => $body,
-            Term::StitchLength($s, $d) => $body,
-            Term::Friction($s, $d) => $body,
-            Term::Wrapping($s, $d) => $body,
-            Term::CrossingShear($s, $d) => $body,
-            Term::Obstacle($s, $d) => $body,
-            Term::LoopContact($s, $d) => $body,
-            Term::SegmentFloor($s, $d) => $body,
-            Term::Inertia($s, $d) => $body,
-            Term::Damping1($s, $d) => $body,
-            Term::Damping2($s, $d) => $body,
-            Term::Damping8($s, $d) => $body,
-            Term::Damping12($s, $d) => $body,
-            Term::Damping9($s, $d) => $body,
-        }
-    };
-}
-
-impl Term {
-    /// The term's global DOF indices.
-    pub fn dofs(&self) -> &[usize] {
-        with_stencil!(self, _s, d => d.as_slice())
-    }
-
-    /// The term's kind.
-    pub fn kind(&self) -> TermKind {
-        match self {
-            Term::Gravity(..) => TermKind::Gravity,
-            Term::Stretch(..) => TermKind::Stretch,
-            Term::Bending(..) => TermKind::Bending,
-            Term::StitchLength(..) => TermKind::StitchLength,
-            Term::Friction(..) => TermKind::Friction,
-            Term::Wrapping(..) => TermKind::Wrapping,
-            Term::CrossingShear(..) => TermKind::CrossingShear,
-            Term::Obstacle(..) => TermKind::Obstacle,
-            Term::LoopContact(..) => TermKind::LoopContact,
-            Term::SegmentFloor(..) => TermKind::SegmentFloor,
-            Term::Inertia(..) => TermKind::Inertia,
-            Term::Damping1(..)
-            | Term::Damping2(..)
-            | Term::Damping8(..)
-            | Term::Damping9(..)
-            | Term::Damping12(..) => TermKind::Damping,
-        }
-    }
-
-    /// Energy (J) at the global coordinates `q`.
-    pub fn energy(&self, q: &[f64]) -> f64 {
-        with_stencil!(self, s, d => s.energy(&gather(q, d)))
-    }
-
-    /// Overwrites `target`, the damping term made by [`Term::damping_form`] for this term,
-    /// with the form at `q` (no allocation). Returns `false` (and leaves `target` alone) if
-    /// `target` is not this term's damping form.
-    pub fn update_damping_form(&self, q: &[f64], factor: f64, target: &mut Term) -> bool {
-        /// `project`: whether the Hessian can be indefinite (the Eq. 5 and Eq. 6 springs
-        /// have constant PSD Hessians, so their costly eigen-projection is skipped).
-        fn fill<const N: usize>(
-            s: &impl Stencil<N>,
-            d: &[usize; N],
-            q: &[f64],
-            factor: f64,
-            project: bool,
-            out: &mut Quadratic<N>,
-        ) {
-            let local = gather(q, d);
-            let mut h = s.eval(&local).hessian;
-            if project {
-                rod::spd::project_spd_matrix(&mut h);
-            }
-            out.matrix = factor * h;
-            out.center = local;
-        }
-        match (self, target) {
-            (Term::Stretch(s, d), Term::Damping8(f, e)) if d == e => fill(s, d, q, factor, true, f),
-            (Term::Bending(s, d), Term::Damping12(f, e)) if d == e => {
-                fill(s, d, q, factor, true, f)
-            }
-            (Term::Wrapping(s, d), Term::Damping12(f, e)) if d == e => {
-                fill(s, d, q, factor, true, f)
-            }
-            (Term::CrossingShear(s, d), Term::Damping9(f, e)) if d == e => {
-                fill(s, d, q, factor, true, f)
-            }
-            (Term::StitchLength(s, d), Term::Damping2(f, e)) if d == e => {
-                fill(s, d, q, factor, false, f)
-            }
-            (Term::Friction(s, d), Term::Damping1(f, e)) if d == e => {
-                fill(s, d, q, factor, false, f)
-            }
-            _ => return false,
-        }
-        true
-    }
-
-    /// The stiffness-damping form of this term at `q` (`(β/h) K⁺(q)` centred at `q`), or
-    /// `None` for terms that are not elastic (gravity, inertia, damping).
-    pub fn damping_form(&self, q: &[f64], factor: f64) -> Option<Term> {
-        let mut target = match self {
-            Term::Stretch(_, d) => Term::Damping8(Box::new(Quadratic::zero()), *d),
-            Term::Bending(_, d) | Term::Wrapping(_, d) => {
-                Term::Damping12(Box::new(Quadratic::zero()), *d)
-            }
-            Term::StitchLength(_, d) => Term::Damping2(Box::new(Quadratic::zero()), *d),
-            Term::CrossingShear(_, d) => Term::Damping9(Box::new(Quadratic::zero()), *d),
-            Term::Friction(_, d) => Term::Damping1(Box::new(Quadratic::zero()), *d),
-            _ => return None,
-        };
-        self.update_damping_form(q, factor, &mut target);
-        Some(target)
-    }
-}
-
-/// Energy (J) of each kind among `terms` at `q`, in [`TermKind`] order (kinds without terms
-/// are left out).
-pub fn energy_by_kind(terms: &[Term], q: &[f64]) -> Vec<(TermKind, f64)> {
-    let mut out: Vec<(TermKind, f64)> = Vec::new();
-    for t in terms {
-        let e = t.energy(q);
-        match out.iter_mut().find(|(k, _)| *k == t.kind()) {
-            Some((_, sum)) => *sum += e,
-            None => out.push((t.kind(), e)),
-        }
-    }
-    out.sort_by_key(|(k, _)| *k);
-    out
-}
-
-/// Gradient `∂V/∂q` (N for positions and sliding coordinates) of the sum of `terms` at `q`,
-/// over all `n_dofs` coordinates, summed serially in term order.
-pub fn gradient(terms: &[Term], q: &[f64], n_dofs: usize) -> Vec<f64> {
-    let mut g = vec![0.0; n_dofs];
-    for t in terms {
-        with_stencil!(t, s, d => {
-            let (_, local) = s.energy_and_gradient(&gather(q, d));
-            for (&i, v) in d.iter().zip(local.iter()) {
-                g[i] += v;
-            }
-        })
-    }
-    g
-}
-
-/// The sum of a list of terms: a `solver::Problem` over all generalized coordinates.
-#[derive(Clone, Debug, PartialEq)]
+/// A sum of force terms: a [`solver::Terms`] container (every term a `rod::Stencil` wrapped
+/// in [`RodTerm`], on its global DOFs) with the [`TermKind`] of each term beside it. It is a
+/// `solver::Problem` over all generalized coordinates; terms are summed in push order.
+///
+/// The stencil type of each kind: gravity [`Gravity`] (8 DOFs), stretch
+/// [`rod::stretch::SlidingSegment`] (8), bending [`rod::bending::AngleBending`] (12), stitch
+/// length [`StitchLength`] (2), friction [`AnchoredSpring`] (1), wrapping [`StitchWrap`] (12;
+/// positions of `q₀, q₁, q₄, q₃`), crossing shear [`crossing_shear::CrossingShear`] (9),
+/// obstacle [`obstacle::ObstacleContact`] (3), loop contact [`LoopContact`] (6), segment
+/// floor [`SegmentFloor`] (2), inertia and damping [`quadratic::Quadratic<N>`] (as the term
+/// they belong to).
+#[derive(Clone, Debug)]
 pub struct Potential {
-    /// The terms, in assembly order.
-    pub terms: Vec<Term>,
-    n_dofs: usize,
+    terms: Terms,
+    kinds: Vec<TermKind>,
 }
 
 impl Potential {
-    /// A potential over `n_dofs` coordinates. Errors if a term references a DOF ≥ `n_dofs`.
-    pub fn new(n_dofs: usize, terms: Vec<Term>) -> Result<Self, String> {
-        if let Some(t) = terms.iter().find(|t| t.dofs().iter().any(|&d| d >= n_dofs)) {
-            return Err(format!("term {t:?} references a DOF ≥ {n_dofs}"));
+    /// An empty potential over `n_dofs` coordinates.
+    pub fn new(n_dofs: usize) -> Self {
+        Self {
+            terms: Terms::new(n_dofs),
+            kinds: Vec::new(),
         }
-        Ok(Self { terms, n_dofs })
+    }
+
+    /// Appends the stencil `stencil` of kind `kind` on the global DOFs `dofs`; returns its
+    /// index.
+    pub fn push<S, const N: usize>(&mut self, kind: TermKind, stencil: S, dofs: [usize; N]) -> usize
+    where
+        S: Stencil<N> + Clone + Send + Sync + 'static,
+    {
+        self.kinds.push(kind);
+        self.terms.push_stencil(stencil, dofs)
+    }
+
+    /// Moves every term of `other` (same number of coordinates) to the end, in order.
+    pub fn append(&mut self, other: Potential) {
+        self.terms.append(other.terms);
+        self.kinds.extend(other.kinds);
+    }
+
+    /// Errors if a term references a DOF ≥ the number of coordinates.
+    pub fn check_dofs(&self) -> Result<(), String> {
+        let n = self.terms.n_dofs();
+        match (0..self.len()).find(|&k| self.dofs(k).iter().any(|&d| d >= n)) {
+            Some(k) => Err(format!(
+                "term {k} ({:?}) references a DOF ≥ {n}",
+                self.kinds[k]
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// The terms.
+    pub fn terms(&self) -> &Terms {
+        &self.terms
+    }
+
+    /// Number of terms.
+    pub fn len(&self) -> usize {
+        self.kinds.len()
+    }
+
+    /// Whether there are no terms.
+    pub fn is_empty(&self) -> bool {
+        self.kinds.is_empty()
+    }
+
+    /// The kind of term `k`.
+    pub fn kind(&self, k: usize) -> TermKind {
+        self.kinds[k]
+    }
+
+    /// The kind of every term, in order.
+    pub fn kinds(&self) -> &[TermKind] {
+        &self.kinds
+    }
+
+    /// Number of terms of kind `kind`.
+    pub fn count(&self, kind: TermKind) -> usize {
+        self.kinds.iter().filter(|&&k| k == kind).count()
+    }
+
+    /// The global DOFs of term `k`.
+    pub fn dofs(&self, k: usize) -> &[usize] {
+        self.terms.dofs(k)
+    }
+
+    /// Term `k` as an `S` stencil on `N` DOFs, if it is one.
+    pub fn get<S: Stencil<N> + Clone + Send + Sync + 'static, const N: usize>(
+        &self,
+        k: usize,
+    ) -> Option<&S> {
+        self.terms.get::<RodTerm<S, N>>(k).map(|t| &t.0)
+    }
+
+    /// Term `k` as a mutable `S` stencil on `N` DOFs, if it is one.
+    pub fn get_mut<S: Stencil<N> + Clone + Send + Sync + 'static, const N: usize>(
+        &mut self,
+        k: usize,
+    ) -> Option<&mut S> {
+        self.terms.get_mut::<RodTerm<S, N>>(k).map(|t| &mut t.0)
+    }
+
+    /// Every `S` stencil on `N` DOFs with its index, in order.
+    pub fn iter_of<S: Stencil<N> + Clone + Send + Sync + 'static, const N: usize>(
+        &self,
+    ) -> impl Iterator<Item = (usize, &S)> {
+        self.terms
+            .iter_of::<RodTerm<S, N>>()
+            .map(|(k, t)| (k, &t.0))
+    }
+
+    /// Every `S` stencil on `N` DOFs, mutably, with its index and DOFs, in order.
+    pub fn iter_mut_of<S: Stencil<N> + Clone + Send + Sync + 'static, const N: usize>(
+        &mut self,
+    ) -> impl Iterator<Item = (usize, &mut S, &[usize])> {
+        self.terms
+            .iter_mut_with_dofs_of::<RodTerm<S, N>>()
+            .map(|(k, t, d)| (k, &mut t.0, d))
+    }
+
+    /// Term `k`, mutably (as a `solver` term: downcast to `RodTerm<S, N>` to change it).
+    pub fn term_mut(&mut self, k: usize) -> &mut dyn solver::LocalEnergy {
+        self.terms.term_mut(k)
+    }
+
+    /// Every term, mutably, in order, as a parallel iterator (per-step updates).
+    pub fn par_iter_mut(
+        &mut self,
+    ) -> impl rayon::iter::IndexedParallelIterator<Item = &mut (dyn solver::LocalEnergy + 'static)>
+    {
+        self.terms.par_iter_mut()
+    }
+
+    /// Energy (J) of term `k` at the global coordinates `q`.
+    pub fn term_energy(&self, k: usize, q: &[f64]) -> f64 {
+        solver::Problem::stencil_energy(&self.terms, k, q)
     }
 
     /// Total energy (J) at `q`, summed in term order.
     pub fn energy(&self, q: &[f64]) -> f64 {
-        self.terms.iter().map(|t| t.energy(q)).sum()
+        (0..self.len()).map(|k| self.term_energy(k, q)).sum()
     }
 
-    /// Energy (J) of each kind of term at `q` (kinds without terms are left out).
+    /// Energy (J) of each kind of term at `q`, in [`TermKind`] order (kinds without terms
+    /// are left out).
     pub fn energy_by_kind(&self, q: &[f64]) -> Vec<(TermKind, f64)> {
-        energy_by_kind(&self.terms, q)
+        let mut out: Vec<(TermKind, f64)> = Vec::new();
+        for (k, &kind) in self.kinds.iter().enumerate() {
+            let e = self.term_energy(k, q);
+            match out.iter_mut().find(|(k, _)| *k == kind) {
+                Some((_, sum)) => *sum += e,
+                None => out.push((kind, e)),
+            }
+        }
+        out.sort_by_key(|(k, _)| *k);
+        out
+    }
+
+    /// Gradient `∂V/∂q` (N for positions and sliding coordinates) at `q` over all
+    /// coordinates, summed serially in term order.
+    pub fn gradient(&self, q: &[f64]) -> Vec<f64> {
+        let mut g = vec![0.0; self.terms.n_dofs()];
+        let mut local = [0.0; solver::MAX_TERM_DOFS];
+        for k in 0..self.len() {
+            let d = self.dofs(k);
+            let local = &mut local[..d.len()];
+            self.terms.term(k).eval_at(q, d, None, local, None);
+            for (&i, v) in d.iter().zip(local.iter()) {
+                g[i] += v;
+            }
+        }
+        g
     }
 }
 
 impl solver::Problem for Potential {
     fn n_dofs(&self) -> usize {
-        self.n_dofs
+        self.terms.n_dofs()
     }
 
     fn n_stencils(&self) -> usize {
@@ -358,15 +320,15 @@ impl solver::Problem for Potential {
     }
 
     fn stencil_dofs(&self, k: usize) -> &[usize] {
-        self.terms[k].dofs()
+        self.terms.dofs(k)
     }
 
     fn eval_stencil(&self, k: usize, x: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
-        with_stencil!(&self.terms[k], s, d => solver::eval_rod_stencil(s, d, x, grad, hess))
+        self.terms.eval_stencil(k, x, grad, hess)
     }
 
     fn stencil_energy(&self, k: usize, x: &[f64]) -> f64 {
-        self.terms[k].energy(x)
+        self.terms.stencil_energy(k, x)
     }
 }
 
@@ -377,11 +339,12 @@ pub fn obstacle_terms(
     dofs: &DofMap,
     params: &YarnParams,
     obstacles: &[obstacle::Obstacle],
-) -> Result<Vec<Term>, String> {
-    Ok(obstacle::stencils(topology, dofs, params, obstacles)?
-        .into_iter()
-        .map(|(s, d)| Term::Obstacle(s, d))
-        .collect())
+) -> Result<Potential, String> {
+    let mut terms = Potential::new(dofs.n_dofs());
+    for (s, d) in obstacle::stencils(topology, dofs, params, obstacles)? {
+        terms.push(TermKind::Obstacle, s, d);
+    }
+    Ok(terms)
 }
 
 /// The elastic and gravity terms of a fabric (everything but the per-step inertia and
@@ -398,8 +361,8 @@ pub fn build_terms(
     params: &YarnParams,
     forces: &ForceSet,
     q_rest: &[f64],
-) -> Vec<Term> {
-    let mut terms = Vec::new();
+) -> Potential {
+    let mut terms = Potential::new(dofs.n_dofs());
     let gravity = Gravity {
         density: params.linear_density,
         g: params.gravity,
@@ -410,16 +373,14 @@ pub fn build_terms(
         let p = &topology.yarns[y].passes;
         let d = dofs.segment_dofs(p[i], p[i + 1]);
         if forces.gravity && gravity.g.norm() > 0.0 {
-            terms.push(Term::Gravity(gravity, d));
+            terms.push(TermKind::Gravity, gravity, d);
         }
         if forces.stretch {
-            terms.push(Term::Stretch(stretch, d));
+            terms.push(TermKind::Stretch, stretch, d);
         }
         if forces.segment_floor {
-            terms.push(Term::SegmentFloor(
-                SegmentFloor::for_yarn(params),
-                [d[3], d[7]],
-            ));
+            let floor = SegmentFloor::for_yarn(params);
+            terms.push(TermKind::SegmentFloor, floor, [d[3], d[7]]);
         }
     }
     if forces.bending && bend.stiffness > 0.0 {
@@ -433,7 +394,7 @@ pub fn build_terms(
             let d = [
                 a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], c[0], c[1], c[2], c[3],
             ];
-            terms.push(Term::Bending(bend, d));
+            terms.push(TermKind::Bending, bend, d);
         }
     }
     if forces.stitch_length && params.stitch_length_stiffness > 0.0 {
@@ -451,13 +412,12 @@ pub fn build_terms(
                     dofs.u(sc.nodes[1], slot(sc.nodes[1])),
                 ];
                 let rest_length = q_rest[d[1]] - q_rest[d[0]];
-                terms.push(Term::StitchLength(
-                    StitchLength {
-                        stiffness: params.stitch_length_stiffness,
-                        rest_length,
-                    },
-                    d,
-                ));
+                let stiffness = params.stitch_length_stiffness;
+                let length = StitchLength {
+                    stiffness,
+                    rest_length,
+                };
+                terms.push(TermKind::StitchLength, length, d);
             }
         }
     }
@@ -469,21 +429,21 @@ pub fn build_terms(
             let rest_length = (position(sc.nodes[1]) - position(sc.nodes[0])).norm();
             for nodes in wrapping::wrap_pairs(topology, sc).into_iter().flatten() {
                 let d: [usize; 12] = std::array::from_fn(|k| dofs.x(nodes[k / 3]) + k % 3);
-                terms.push(Term::Wrapping(
-                    StitchWrap {
-                        stiffness: params.wrapping_stiffness,
-                        rest_length,
-                        rest_angle,
-                    },
-                    d,
-                ));
+                let wrap = StitchWrap {
+                    stiffness: params.wrapping_stiffness,
+                    rest_length,
+                    rest_angle,
+                };
+                terms.push(TermKind::Wrapping, wrap, d);
             }
         }
     }
     let weave = matches!(topology.kind, FabricKind::Weave { .. });
     if forces.crossing_shear && weave && forces.crossing_shear_params.stiffness > 0.0 {
         let shear = crossing_shear::stencils(topology, dofs, &forces.crossing_shear_params, q_rest);
-        terms.extend(shear.into_iter().map(|(s, d)| Term::CrossingShear(s, d)));
+        for (s, d) in shear {
+            terms.push(TermKind::CrossingShear, s, d);
+        }
     }
     if forces.loop_contact && params.loop_contact_stiffness > 0.0 {
         let contact = LoopContact {
@@ -492,7 +452,7 @@ pub fn build_terms(
         };
         for [a, b] in loop_contact::candidate_pairs(topology) {
             let d: [usize; 6] = std::array::from_fn(|k| dofs.x([a, b][k / 3]) + k % 3);
-            terms.push(Term::LoopContact(contact, d));
+            terms.push(TermKind::LoopContact, contact, d);
         }
     }
     if forces.friction && params.friction_stiffness > 0.0 {
@@ -504,7 +464,7 @@ pub fn build_terms(
                 if !p.sliding_pinned {
                     let d = [dofs.u(n, slot)];
                     let spring = AnchoredSpring::new(params.friction_stiffness, q_rest[d[0]]);
-                    terms.push(Term::Friction(spring, d));
+                    terms.push(TermKind::Friction, spring, d);
                 }
             }
         }

@@ -54,6 +54,10 @@
 //! centre = [0.0, 0.0, -0.02]   # m
 //! radius = 0.01        # m
 //! stiffness = 2e4      # N/m; optional, default k_s/R of the yarn
+//! sticky = false       # true: a node that touches the obstacle (distance from its
+//!                      # surface ≤ the yarn radius) at the end of a step is pinned there
+//!                      # from then on (sticking contact, the μ → ∞ stand-in for friction
+//!                      # of crate::experiment::sphere_drop); default false
 //!
 //! [[clamp]]            # any number; pinned nodes (crate::experiment::clamps::ClampSet),
 //!                      # optionally driven at a constant velocity; exactly one of
@@ -89,17 +93,25 @@
 //! simulated node polylines ("nodes"). [`write_obj`] / [`obj_text`] keep the former output:
 //! a `v` line per contact node and an `l` polyline per yarn through its nodes in yarn order.
 
+mod specs;
+
+pub use specs::{
+    ClampSpec, CrossingShearSpec, DampingSpec, Fabric, ForcesSpec, ObstacleSpec, PatternSpec,
+    SceneCrossingShear, YarnSpec,
+};
+
 use crate::chart::{Chart, ChartError};
-use crate::experiment::clamps::{ClampSet, Grid};
+use crate::experiment::clamps::Grid;
+use crate::experiment::sphere_drop::StickyContacts;
 use crate::forces::ForceSet;
+use crate::forces::obstacle::Obstacle;
 use crate::integrator::{SimError, Simulator, StepSettings};
 use crate::layout::{Layout, LayoutError, LayoutParams};
 use crate::output::{OutputError, OutputSpec};
 use crate::params::YarnParams;
-use crate::topology::Topology;
-use crate::weave::WeavePattern;
 use rod::geometry::V3;
 use serde::Deserialize;
+use specs::de_pattern;
 use std::path::{Path, PathBuf};
 
 /// A scene that cannot be read or set up.
@@ -142,171 +154,6 @@ pub enum SceneError {
     Output(#[from] OutputError),
 }
 
-/// `[pattern]`.
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct PatternSpec {
-    /// Builder name: knits `stockinette`, `garter`, `rib`, `seed`; weaves `plain`, `twill`,
-    /// `satin`.
-    pub builder: Option<String>,
-    /// Stitches per row (with a knit builder).
-    pub width: Option<usize>,
-    /// Rows (with a knit builder).
-    pub height: Option<usize>,
-    /// `[knits, purls]` per rib repeat (builder `rib`).
-    pub rib: Option<[usize; 2]>,
-    /// A chart in the text format of [`crate::chart`] (instead of a builder).
-    pub chart: Option<String>,
-    /// Warp yarns (with a weave builder, ≥ 2).
-    pub warps: Option<usize>,
-    /// Weft yarns (with a weave builder, ≥ 2).
-    pub wefts: Option<usize>,
-    /// `[over, under]` of a twill (builder `twill`; default `[2, 1]`).
-    pub twill: Option<[usize; 2]>,
-    /// `[harness, step]` of a satin (builder `satin`; default `[5, 2]`).
-    pub satin: Option<[usize; 2]>,
-}
-
-/// The fabric a `[pattern]` describes.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Fabric {
-    /// A knit from a stitch chart.
-    Knit(Chart),
-    /// A woven fabric ([`Topology::weave`]).
-    Weave {
-        /// The weave pattern.
-        pattern: WeavePattern,
-        /// Warp yarns.
-        warps: usize,
-        /// Weft yarns.
-        wefts: usize,
-    },
-}
-
-impl Fabric {
-    /// The topology of the fabric.
-    pub fn topology(&self) -> Result<Topology, SceneError> {
-        match self {
-            Fabric::Knit(chart) => Ok(Topology::knit(chart)),
-            Fabric::Weave {
-                pattern,
-                warps,
-                wefts,
-            } => Topology::weave(*pattern, *warps, *wefts)
-                .map_err(|e| SceneError::Invalid(format!("[pattern] {e}"))),
-        }
-    }
-}
-
-impl PatternSpec {
-    /// The fabric: a chart, a knit builder or a weave builder, with the keys that apply to it.
-    pub fn fabric(&self) -> Result<Fabric, SceneError> {
-        let bad = |m: String| SceneError::Invalid(format!("[pattern] {m}"));
-        let set = |name: &'static str, given: bool| given.then_some(name);
-        let knit_size = [
-            set("width", self.width.is_some()),
-            set("height", self.height.is_some()),
-            set("rib", self.rib.is_some()),
-        ];
-        let weave_size = [
-            set("warps", self.warps.is_some()),
-            set("wefts", self.wefts.is_some()),
-            set("twill", self.twill.is_some()),
-            set("satin", self.satin.is_some()),
-        ];
-        let reject = |keys: &[Option<&'static str>], what: &str| -> Result<(), SceneError> {
-            match keys.iter().flatten().next() {
-                Some(k) => Err(bad(format!("`{k}` does not apply to {what}"))),
-                None => Ok(()),
-            }
-        };
-        match (&self.builder, &self.chart) {
-            (Some(_), Some(_)) | (None, None) => {
-                Err(bad("needs exactly one of `builder` and `chart`".into()))
-            }
-            (None, Some(text)) => {
-                reject(&knit_size, "a chart (it sets the size itself)")?;
-                reject(&weave_size, "a chart (it sets the size itself)")?;
-                Ok(Fabric::Knit(Chart::parse(text)?))
-            }
-            (Some(builder), None) => match builder.as_str() {
-                "stockinette" | "garter" | "seed" | "rib" => {
-                    reject(&weave_size, &format!("knit builder \"{builder}\""))?;
-                    let (Some(w), Some(h)) = (self.width, self.height) else {
-                        return Err(bad(format!(
-                            "builder \"{builder}\" needs `width` and `height`"
-                        )));
-                    };
-                    if self.rib.is_some() && builder != "rib" {
-                        return Err(bad(format!(
-                            "`rib` only applies to builder \"rib\", not \"{builder}\""
-                        )));
-                    }
-                    Ok(Fabric::Knit(match builder.as_str() {
-                        "stockinette" => Chart::stockinette(w, h)?,
-                        "garter" => Chart::garter(w, h)?,
-                        "seed" => Chart::seed(w, h)?,
-                        _ => {
-                            let [k, pu] = self.rib.unwrap_or([2, 2]);
-                            Chart::rib(w, h, k, pu)?
-                        }
-                    }))
-                }
-                "plain" | "twill" | "satin" => {
-                    reject(&knit_size, &format!("weave builder \"{builder}\""))?;
-                    let (Some(warps), Some(wefts)) = (self.warps, self.wefts) else {
-                        return Err(bad(format!(
-                            "builder \"{builder}\" needs `warps` and `wefts`"
-                        )));
-                    };
-                    if self.twill.is_some() && builder != "twill" {
-                        return Err(bad(format!(
-                            "`twill` only applies to builder \"twill\", not \"{builder}\""
-                        )));
-                    }
-                    if self.satin.is_some() && builder != "satin" {
-                        return Err(bad(format!(
-                            "`satin` only applies to builder \"satin\", not \"{builder}\""
-                        )));
-                    }
-                    let pattern = match builder.as_str() {
-                        "plain" => WeavePattern::Plain,
-                        "twill" => {
-                            let [over, under] = self.twill.unwrap_or([2, 1]);
-                            WeavePattern::Twill { over, under }
-                        }
-                        _ => {
-                            let [harness, step] = self.satin.unwrap_or([5, 2]);
-                            WeavePattern::Satin { harness, step }
-                        }
-                    };
-                    let fabric = Fabric::Weave {
-                        pattern,
-                        warps,
-                        wefts,
-                    };
-                    fabric.topology()?;
-                    Ok(fabric)
-                }
-                other => Err(bad(format!(
-                    "unknown builder \"{other}\" (stockinette, garter, rib, seed, plain, twill, satin)"
-                ))),
-            },
-        }
-    }
-}
-
-/// Deserializes `[pattern]` and checks it ([`PatternSpec::fabric`]), so that an inconsistent
-/// table is reported at its line.
-fn de_pattern<'de, D: serde::Deserializer<'de>>(d: D) -> Result<PatternSpec, D::Error> {
-    let spec = PatternSpec::deserialize(d)?;
-    match spec.fabric() {
-        Ok(_) => Ok(spec),
-        Err(SceneError::Invalid(m)) => Err(serde::de::Error::custom(m)),
-        Err(e) => Err(serde::de::Error::custom(format!("[pattern] {e}"))),
-    }
-}
-
 /// `output_every` (≥ 1).
 fn de_output_every<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<usize>, D::Error> {
     let v = usize::deserialize(d)?;
@@ -314,249 +161,6 @@ fn de_output_every<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<usiz
         return Err(serde::de::Error::custom("`output_every` must be ≥ 1 step"));
     }
     Ok(Some(v))
-}
-
-/// `[yarn]`: a Table 1 preset with optional overrides (SI units).
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct YarnSpec {
-    /// `sweater` (default), `shirt` or `pullover`.
-    pub preset: Option<String>,
-    /// Yarn radius (m).
-    pub radius: Option<f64>,
-    /// Young modulus (Pa).
-    pub young_modulus: Option<f64>,
-    /// Bending modulus B of Table 1.
-    pub bending_modulus: Option<f64>,
-    /// Linear density (kg/m).
-    pub linear_density: Option<f64>,
-    /// Wrapping stiffness `k_w` (N).
-    pub wrapping_stiffness: Option<f64>,
-    /// A constant friction slip force (N) instead of the Coulomb bound `μ λ`.
-    pub friction_max_force: Option<f64>,
-    /// Friction coefficient μ (Eq. 5; default 0.3).
-    pub friction_coefficient: Option<f64>,
-    /// Loop width of the layout (m; default the preset's Table 1 value).
-    pub loop_width: Option<f64>,
-    /// Gravity (m/s²).
-    pub gravity: Option<[f64; 3]>,
-}
-
-/// `[damping]`: Rayleigh coefficients.
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct DampingSpec {
-    /// Mass damping α (1/s).
-    pub alpha: Option<f64>,
-    /// Stiffness damping β (s).
-    pub beta: Option<f64>,
-}
-
-/// `[forces]`: which terms exist (all default to true except `loop_contact`).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct ForcesSpec {
-    /// Gravity.
-    pub gravity: bool,
-    /// Yarn stretch.
-    pub stretch: bool,
-    /// Bending with jamming.
-    pub bending: bool,
-    /// Stitch-contact length.
-    pub stitch_length: bool,
-    /// Sliding friction.
-    pub friction: bool,
-    /// Stitch wrapping.
-    pub wrapping: bool,
-    /// Crossing shear with jamming (weaves only).
-    pub crossing_shear: bool,
-    /// Contact between adjacent loops (knits only; default false,
-    /// [`crate::forces::loop_contact`]).
-    pub loop_contact: bool,
-    /// Floor on the material length of segments (default true,
-    /// [`crate::forces::segment_floor`]).
-    pub segment_floor: bool,
-}
-
-impl Default for ForcesSpec {
-    fn default() -> Self {
-        let f = ForceSet::default();
-        Self {
-            gravity: f.gravity,
-            stretch: f.stretch,
-            bending: f.bending,
-            stitch_length: f.stitch_length,
-            friction: f.friction,
-            wrapping: f.wrapping,
-            crossing_shear: f.crossing_shear,
-            loop_contact: f.loop_contact,
-            segment_floor: f.segment_floor,
-        }
-    }
-}
-
-/// `[[clamp]]`: a clamp set ([`ClampSet`]: a row boundary, a side or a column), pinned and
-/// moved at a constant velocity.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ClampSpec {
-    /// `cast-on`, `bind-off`, `left` or `right` ([`ClampSet::from_edge`]; checked while
-    /// parsing); exactly one of `edge` and `column`.
-    #[serde(default, deserialize_with = "de_edge")]
-    pub edge: Option<String>,
-    /// A stitch column (knits) or warp (weaves), 0-based.
-    pub column: Option<usize>,
-    /// Velocity (m/s, finite); default zero.
-    #[serde(default, deserialize_with = "de_velocity")]
-    pub velocity: [f64; 3],
-}
-
-impl ClampSpec {
-    /// The clamp set of the entry, or what is wrong with it.
-    pub fn set(&self) -> Result<ClampSet, String> {
-        match (&self.edge, self.column) {
-            (Some(edge), None) => ClampSet::from_edge(edge)
-                .ok_or_else(|| format!("[[clamp]] unknown edge \"{edge}\" ({CLAMP_EDGES})")),
-            (None, Some(c)) => Ok(ClampSet::Column(c)),
-            _ => Err("[[clamp]] needs exactly one of `edge` and `column`".into()),
-        }
-    }
-}
-
-/// The `edge` names of `[[clamp]]`.
-const CLAMP_EDGES: &str = "cast-on, bind-off, left, right";
-
-impl ClampSpec {
-    /// The nodes the entry clamps on a swatch with node grid `grid`, or what is wrong.
-    pub fn clamp_nodes(&self, grid: Grid) -> Result<Vec<usize>, String> {
-        self.set()?
-            .nodes(grid)
-            .map_err(|e| format!("[[clamp]] {e}"))
-    }
-}
-
-/// A clamp `edge` name ([`ClampSet::from_edge`]).
-fn de_edge<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<String>, D::Error> {
-    let edge = String::deserialize(d)?;
-    if ClampSet::from_edge(&edge).is_none() {
-        return Err(serde::de::Error::custom(format!(
-            "unknown clamp edge \"{edge}\" ({CLAMP_EDGES})"
-        )));
-    }
-    Ok(Some(edge))
-}
-
-/// A clamp velocity: three finite numbers (m/s).
-fn de_velocity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
-    let v = <[f64; 3]>::deserialize(d)?;
-    if !v.iter().all(|c| c.is_finite()) {
-        return Err(serde::de::Error::custom(format!(
-            "clamp `velocity` must be three finite numbers (m/s), found {v:?}"
-        )));
-    }
-    Ok(v)
-}
-
-/// `[[obstacle]]`: a sphere (`centre`, `radius`) or a plane (`point`, `normal`) with an
-/// optional `stiffness` (SI units), checked by [`Scene::parse`] (errors name the entry's
-/// line).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ObstacleSpec {
-    /// `sphere` or `plane`.
-    pub kind: String,
-    /// Sphere centre (m).
-    pub centre: Option<[f64; 3]>,
-    /// Sphere radius (m).
-    pub radius: Option<f64>,
-    /// A point of the plane (m).
-    pub point: Option<[f64; 3]>,
-    /// The plane's outward normal (any non-zero length).
-    pub normal: Option<[f64; 3]>,
-    /// Penalty stiffness (N/m); default `k_s/R` of the yarn.
-    pub stiffness: Option<f64>,
-}
-
-impl ObstacleSpec {
-    /// The validated obstacle, or what is wrong with the entry.
-    pub fn obstacle(&self) -> Result<crate::forces::obstacle::Obstacle, String> {
-        use crate::forces::obstacle::{Obstacle, Shape};
-        let o = self;
-        let stray = |keys: &[(&str, bool)]| -> Result<(), String> {
-            match keys.iter().find(|(_, given)| *given) {
-                Some((k, _)) => Err(format!(
-                    "[[obstacle]] `{k}` does not apply to kind \"{}\"",
-                    o.kind
-                )),
-                None => Ok(()),
-            }
-        };
-        let need = |k: &str| format!("[[obstacle]] kind \"{}\" needs `{k}`", o.kind);
-        let shape = match o.kind.as_str() {
-            "sphere" => {
-                stray(&[("point", o.point.is_some()), ("normal", o.normal.is_some())])?;
-                Shape::Sphere {
-                    center: V3::from(o.centre.ok_or_else(|| need("centre"))?),
-                    radius: o.radius.ok_or_else(|| need("radius"))?,
-                }
-            }
-            "plane" => {
-                stray(&[
-                    ("centre", o.centre.is_some()),
-                    ("radius", o.radius.is_some()),
-                ])?;
-                Shape::Plane {
-                    point: V3::from(o.point.ok_or_else(|| need("point"))?),
-                    normal: V3::from(o.normal.ok_or_else(|| need("normal"))?),
-                }
-            }
-            other => {
-                return Err(format!(
-                    "[[obstacle]] unknown kind \"{other}\" (sphere, plane)"
-                ));
-            }
-        };
-        Obstacle::new(shape, o.stiffness).map_err(|e| format!("[[obstacle]] {e}"))
-    }
-}
-
-/// The keys of `[crossing_shear]` (see [`SceneCrossingShear`]).
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct CrossingShearSpec {
-    /// Shear stiffness `k_x` (N).
-    pub stiffness: Option<f64>,
-    /// Jamming threshold γ_j (rad).
-    pub jamming_angle: Option<f64>,
-    /// Width of the jamming transition (rad).
-    pub jamming_width: Option<f64>,
-    /// Stiffness factor once jammed.
-    pub jamming_factor: Option<f64>,
-}
-
-/// `[crossing_shear]`: overrides of [`crate::forces::crossing_shear::CrossingShearParams`]
-/// (weaves), checked while parsing.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq)]
-#[serde(try_from = "CrossingShearSpec")]
-pub struct SceneCrossingShear(pub crate::forces::crossing_shear::CrossingShearParams);
-
-impl TryFrom<CrossingShearSpec> for SceneCrossingShear {
-    type Error = String;
-
-    fn try_from(c: CrossingShearSpec) -> Result<Self, String> {
-        let mut p = crate::forces::crossing_shear::CrossingShearParams::default();
-        let set = |slot: &mut f64, v: Option<f64>| {
-            if let Some(v) = v {
-                *slot = v;
-            }
-        };
-        set(&mut p.stiffness, c.stiffness);
-        set(&mut p.jamming.angle, c.jamming_angle);
-        set(&mut p.jamming.width, c.jamming_width);
-        set(&mut p.jamming.factor, c.jamming_factor);
-        p.validate().map_err(|e| format!("[crossing_shear] {e}"))?;
-        Ok(SceneCrossingShear(p))
-    }
 }
 
 /// A scene file (module documentation).
@@ -628,6 +232,40 @@ pub struct SceneRun {
     pub sim: Simulator,
     /// Clamped nodes and their velocity (m/s).
     pub clamps: Vec<(Vec<usize>, V3)>,
+    /// The sticking obstacles (`sticky = true`) and the nodes they hold.
+    pub sticky: StickyObstacles,
+}
+
+/// The obstacles of a scene with `sticky = true` and the contacts they hold.
+#[derive(Clone, Debug)]
+pub struct StickyObstacles {
+    /// The sticking obstacles (none: nothing is ever held).
+    pub obstacles: Vec<Obstacle>,
+    /// The yarn radius (m): a node touches an obstacle when its distance from the surface is
+    /// at most this.
+    pub yarn_radius: f64,
+    /// The nodes held so far.
+    pub contacts: StickyContacts,
+}
+
+impl StickyObstacles {
+    /// Pins the nodes of `sim` that touch a sticking obstacle and are not held yet.
+    pub fn hold(&mut self, sim: &mut Simulator) -> Result<(), SimError> {
+        if self.obstacles.is_empty() {
+            return Ok(());
+        }
+        let q = &sim.state().q;
+        let touching: Vec<usize> = (0..sim.topology().nodes.len())
+            .filter(|&n| {
+                let x = sim.dofs().position(q, n);
+                self.obstacles
+                    .iter()
+                    .any(|o| o.shape.distance(&x).0 <= self.yarn_radius)
+            })
+            .collect();
+        let time = sim.time();
+        self.contacts.hold(sim, &touching, time)
+    }
 }
 
 impl Scene {
@@ -804,6 +442,14 @@ impl Scene {
             .map(|o| o.get_ref().obstacle().map_err(SceneError::Invalid))
             .collect::<Result<Vec<_>, _>>()?;
         sim.add_obstacles(&obstacles)?;
+        let sticky = StickyObstacles {
+            obstacles: (self.obstacle.iter().zip(&obstacles))
+                .filter(|(spec, _)| spec.get_ref().sticky)
+                .map(|(_, o)| *o)
+                .collect(),
+            yarn_radius: params.radius,
+            contacts: StickyContacts::new(sim.topology().nodes.len()),
+        };
         let mut clamps = Vec::new();
         let grid = Grid::from(&fabric);
         for c in &self.clamp {
@@ -812,12 +458,17 @@ impl Scene {
             sim.pin_nodes(&nodes)?;
             clamps.push((nodes, V3::from(c.velocity)));
         }
-        Ok(SceneRun { sim, clamps })
+        Ok(SceneRun {
+            sim,
+            clamps,
+            sticky,
+        })
     }
 }
 
 impl SceneRun {
-    /// Moves the clamps by one step of their drivers, then advances the simulator.
+    /// Moves the clamps by one step of their drivers, advances the simulator, then pins the
+    /// nodes that touch a sticking obstacle ([`StickyObstacles::hold`]).
     pub fn step(&mut self) -> Result<(), SceneError> {
         let dt = self.sim.settings().dt;
         for (nodes, v) in &self.clamps {
@@ -826,6 +477,7 @@ impl SceneRun {
             }
         }
         self.sim.step()?;
+        self.sticky.hold(&mut self.sim)?;
         Ok(())
     }
 }

@@ -1,0 +1,492 @@
+//! Implicit (backward) Euler time stepping as one Newton minimization per step (seed 000 §5:
+//! "implicit-integration algorithm proposed in" ref. 6, Cirio et al. 2014; time step 1 ms).
+//!
+//! With step `h`, coordinates `qₙ`, velocities `vₙ`, Rayleigh damping `D = α M + β K` and the
+//! potential `V` of [`crate::forces`], backward Euler
+//!
+//! ```text
+//! M (vₙ₊₁ − vₙ)/h = −∇V(qₙ₊₁) − D vₙ₊₁,     qₙ₊₁ = qₙ + h vₙ₊₁
+//! ```
+//!
+//! is the stationarity condition of the incremental potential
+//!
+//! ```text
+//! Φ(q) = 1/(2h²) (q − q̂)ᵀ M (q − q̂) + 1/(2h) (q − qₙ)ᵀ D (q − qₙ) + V(q),   q̂ = qₙ + h vₙ,
+//! ```
+//!
+//! which [`solver::NewtonSolver`] minimizes (backtracking line search, diagonal shift when
+//! the Hessian is indefinite, Dirichlet DOFs for pinned positions and pinned sliding
+//! coordinates; the sparsity pattern and symbolic factorization are built once and reused
+//! every step).
+//!
+//! **Documented choices.**
+//! - *Lagged mass matrix.* The state-dependent segment mass matrix
+//!   ([`crate::state::segment_mass_matrix`]) is evaluated at `qₙ` and frozen over the step.
+//! - *Velocity-quadratic terms dropped.* Lagrange's equations for `T = ½ q̇ᵀ M(q) q̇` add
+//!   `Ṁ q̇ − ½ ∂(q̇ᵀ M q̇)/∂q`; we drop them. Their power is
+//!   `q̇ᵀ(Ṁq̇ − ½ ∂(q̇ᵀMq̇)/∂q) = ½ q̇ᵀṀq̇`, exactly what `d/dt (½ q̇ᵀMq̇)` gains from the
+//!   changing `M`, so without them `T + V` drifts at a rate cubic in the velocity (small at
+//!   cloth speeds), on top of backward Euler's O(h) numerical dissipation. The free-swatch
+//!   test measures the total drift and its decrease with `h`.
+//! - *Friction.* The anchored springs of Eq. 5 with the slip force `μ λ`, λ *lagged*:
+//!   estimated ([`crate::forces::compression`]) at the state at the start of the (sub)step,
+//!   so that it does not change during the Newton solve (a static solve uses its
+//!   equilibrium instead and always updates the anchors explicitly,
+//!   [`Simulator::solve_static`]). By default the anchors move only after the step, as in
+//!   the paper ([`crate::forces::friction::AnchoredSpring::update_anchor`]), and friction
+//!   grows with the step. With [`StepSettings::friction_return_mapping`] > 0 the stick/slip
+//!   decision is implicit, a return mapping: the step is re-solved with each coordinate
+//!   either sticking (spring) or slipping (constant Coulomb force) until no coordinate
+//!   changes mode ([`crate::forces::friction`]); then the slipped anchors move to their
+//!   maximal stick positions.
+//! - *Damping.* `D = α M(qₙ) + β K⁺(qₙ)`, with `K⁺` the per-stencil PSD-projected Hessian of
+//!   the elastic terms at the start of the step (so damping is dissipative), both frozen over
+//!   the step like `M`. Optionally `K⁺` is only recomputed every
+//!   [`StepSettings::damping_refresh_steps`] steps (its per-stencil eigen-projections are
+//!   the largest part of a step's setup).
+//! - *Linear solver and linearization.* The Newton system is solved by sparse Cholesky
+//!   (default) or preconditioned conjugate gradients (`StepSettings::newton.linear_solver`);
+//!   [`StepSettings::linearized_implicit_euler`] stops after one Newton iteration without
+//!   line search (linearized backward Euler, as in seed 000's ref. 6), reporting the
+//!   residual it leaves.
+//! - *Step halving.* A step whose Newton solve fails (far from the minimizer, e.g. the first
+//!   undamped step from a layout that is not at rest) is replaced by two half steps,
+//!   recursively ([`StepSettings::max_halvings`]); the state only changes on success.
+//! - *Wrapping ramp.* The layout starts with unwrapped stitch contacts (ψ ≈ 0; a flat layout
+//!   cannot be wrapped uniformly, see [`crate::forces::wrapping`]). Each wrapping term's rest
+//!   angle therefore moves from the layout's angle ψ_L to its target ψ₀ as
+//!   `ψ_L + s(t/T) (ψ₀ − ψ_L)`, `s(λ) = 3λ² − 2λ³` (smoothstep, no jump in the rest angle's
+//!   rate at either end), `T` = [`StepSettings::wrapping_ramp_time`], evaluated at the end
+//!   of each (sub)step; the wrapping energy is zero at the layout. Without the ramp (`T = 0`)
+//!   every contact would get a quarter-turn torque at once.
+
+mod settings;
+mod step;
+
+pub use settings::{SimError, StepReport, StepSettings};
+
+use crate::forces::compression::{CompressionEstimator, NodeCompression};
+use crate::forces::quadratic::{DampingSource, Quadratic};
+use crate::forces::wrapping::StitchWrap;
+use crate::forces::{ForceSet, Potential, TermKind, build_terms};
+use crate::layout::Layout;
+use crate::params::YarnParams;
+use crate::state::{DofMap, State, kinetic_energy};
+use crate::topology::Topology;
+use rod::geometry::V3;
+use solver::{Concat, NewtonReport, NewtonSettings, NewtonSolver};
+
+/// A fabric under implicit Euler time stepping (see the module documentation).
+#[derive(Clone)]
+pub struct Simulator {
+    topology: Topology,
+    dofs: DofMap,
+    params: YarnParams,
+    settings: StepSettings,
+    /// The elastic and gravity terms (obstacle terms at their end).
+    elastic: Potential,
+    /// The terms of the backward Euler step: one inertia term per segment (`segment_dofs`),
+    /// then the Rayleigh-β damping forms of the elastic terms listed in `damped`.
+    step: Potential,
+    segment_dofs: Vec<[usize; 8]>,
+    damped: Vec<DampingSource>,
+    /// Wrapping terms under the rest-angle ramp: (term index, layout angle ψ_L, target ψ₀).
+    wrap_ramp: Vec<(usize, f64, f64)>,
+    fixed: Vec<bool>,
+    state: State,
+    /// The Newton solver of the step (cached sparsity pattern and factorization); a clone
+    /// rebuilds it at its first step.
+    solver: SolverCache,
+    time: f64,
+    /// The Rayleigh-β damping matrices: (number of (sub)steps they were used in, the
+    /// factor β/h they hold); `None` before the first step.
+    damping_built: Option<(usize, f64)>,
+    /// Compression estimation for the Coulomb bound of friction (`None` without friction
+    /// springs or with a constant slip force).
+    compression: Option<CompressionEstimator>,
+}
+
+/// A lazily built Newton solver that clones as "not built yet".
+#[derive(Default)]
+struct SolverCache(Option<NewtonSolver>);
+
+impl Clone for SolverCache {
+    fn clone(&self) -> Self {
+        Self(None)
+    }
+}
+
+impl Simulator {
+    /// A simulator at rest in `layout`, with the force terms `forces`. Sliding coordinates the
+    /// topology pins (yarn ends, one-yarn nodes) are fixed; node positions are free until
+    /// [`pin_nodes`](Self::pin_nodes).
+    pub fn new(
+        topology: Topology,
+        layout: &Layout,
+        params: YarnParams,
+        forces: ForceSet,
+        settings: StepSettings,
+    ) -> Result<Self, SimError> {
+        validate_input(&topology, layout, &params, &forces, &settings)?;
+        let dofs = DofMap::new(&topology);
+        let state = State::from_layout(&topology, &dofs, layout);
+        let mut elastic = build_terms(&topology, &dofs, &params, &forces, &state.q);
+        elastic.check_dofs().map_err(SimError::Invalid)?;
+        let mut wrap_ramp = Vec::new();
+        for (k, wrap, d) in elastic.iter_mut_of::<StitchWrap, 12>() {
+            let x: [f64; 12] = std::array::from_fn(|i| state.q[d[i]]);
+            let start = StitchWrap::angle(&x);
+            wrap_ramp.push((k, start, wrap.rest_angle));
+            if settings.wrapping_ramp_time > 0.0 {
+                wrap.rest_angle = start;
+            }
+        }
+        let segment_dofs: Vec<[usize; 8]> = topology
+            .segments()
+            .map(|(y, i)| {
+                let p = &topology.yarns[y].passes;
+                dofs.segment_dofs(p[i], p[i + 1])
+            })
+            .collect();
+        let mut step = Potential::new(dofs.n_dofs());
+        for d in &segment_dofs {
+            step.push(TermKind::Inertia, Quadratic::<8>::zero(), *d);
+        }
+        let mut damped = Vec::new();
+        if settings.rayleigh_beta > 0.0 {
+            for k in 0..elastic.len() {
+                // Under the return mapping a slipping coordinate feels only the Coulomb
+                // force: a β-damping form of its spring would brake it by β k_f u̇.
+                let friction = elastic.kind(k) == TermKind::Friction;
+                if friction && settings.friction_return_mapping > 0 {
+                    continue;
+                }
+                damped.extend(DampingSource::push_form(
+                    &elastic, k, &state.q, 0.0, &mut step,
+                ));
+            }
+        }
+        let has_friction = elastic.count(TermKind::Friction) > 0;
+        let compression = if has_friction && params.friction_max_force.is_none() {
+            Some(
+                CompressionEstimator::new(&topology, &dofs)
+                    .map_err(|e| SimError::Invalid(e.to_string()))?,
+            )
+        } else {
+            None
+        };
+        let mut fixed = vec![false; dofs.n_dofs()];
+        for (n, node) in topology.nodes.iter().enumerate() {
+            for (s, p) in node.passes.iter().enumerate() {
+                if p.sliding_pinned {
+                    fixed[dofs.u(n, s)] = true;
+                }
+            }
+        }
+        Ok(Self {
+            topology,
+            dofs,
+            params,
+            settings,
+            elastic,
+            step,
+            segment_dofs,
+            damped,
+            wrap_ramp,
+            fixed,
+            state,
+            solver: SolverCache::default(),
+            time: 0.0,
+            damping_built: None,
+            compression,
+        })
+    }
+
+    /// Adds sphere and plane obstacles: one penalty-contact term per node and obstacle
+    /// ([`crate::forces::obstacle`]), counted among the elastic terms (potential energy,
+    /// clamp forces, static equilibrium). Without obstacles nothing is added, so a scene
+    /// without obstacles makes no obstacle queries. Obstacle terms are not Rayleigh-β
+    /// damped. Errors (and adds nothing) if an obstacle is invalid.
+    pub fn add_obstacles(
+        &mut self,
+        obstacles: &[crate::forces::obstacle::Obstacle],
+    ) -> Result<(), SimError> {
+        if obstacles.is_empty() {
+            return Ok(());
+        }
+        let terms =
+            crate::forces::obstacle_terms(&self.topology, &self.dofs, &self.params, obstacles)
+                .map_err(SimError::Invalid)?;
+        // Appended to the elastic terms: the indices of the elastic terms (wrapping ramp,
+        // damped terms) stay valid.
+        self.elastic.append(terms);
+        self.solver.0 = None; // new stencils, new pattern
+        Ok(())
+    }
+
+    /// Holds the positions of `nodes` fixed (Dirichlet DOFs) from now on.
+    pub fn pin_nodes(&mut self, nodes: &[usize]) -> Result<(), SimError> {
+        for &n in nodes {
+            if n >= self.topology.nodes.len() {
+                return Err(SimError::Invalid(format!("no node {n} to pin")));
+            }
+            let x = self.dofs.x(n);
+            for i in x..x + 3 {
+                self.fixed[i] = true;
+                self.state.v[i] = 0.0;
+            }
+        }
+        self.solver.0 = None; // the pattern depends on the fixed DOFs
+        Ok(())
+    }
+
+    /// Holds the sliding coordinates of every yarn through `nodes` fixed (Dirichlet DOFs)
+    /// from now on: a clamp that grips the yarns, so that no yarn slides through it. With
+    /// [`pin_nodes`](Self::pin_nodes) alone the yarns stay free to slide through pinned
+    /// nodes, against friction only.
+    pub fn pin_sliding(&mut self, nodes: &[usize]) -> Result<(), SimError> {
+        for &n in nodes {
+            if n >= self.topology.nodes.len() {
+                return Err(SimError::Invalid(format!("no node {n} to pin")));
+            }
+            for s in 0..self.topology.nodes[n].passes.len() {
+                let i = self.dofs.u(n, s);
+                self.fixed[i] = true;
+                self.state.v[i] = 0.0;
+            }
+        }
+        self.solver.0 = None; // the pattern depends on the fixed DOFs
+        Ok(())
+    }
+
+    /// Static equilibrium under the current pins: minimizes the potential of the elastic
+    /// terms and gravity (no inertia, no damping) from the current state with
+    /// [`StepSettings::newton`] (iteration limit raised to 200, always iterated to
+    /// convergence with a line search), sets the velocities to zero, and then updates the
+    /// friction anchors (Eq. 5) as a step would. For quasi-static loading (driven clamps).
+    /// Needs pins that remove the rigid motions; time does not advance, and the wrapping rest
+    /// angles are those of the ramp at the current time ([`StepSettings::wrapping_ramp_time`]).
+    pub fn solve_static(&mut self) -> Result<NewtonReport, SimError> {
+        self.apply_wrapping_ramp(self.time);
+        // Always a full Newton solve (with line search, to convergence), even when the
+        // steps are linearized; the linear solver is the steps' one.
+        let settings = NewtonSettings {
+            max_iterations: 200,
+            line_search: true,
+            accept_iteration_limit: false,
+            ..self.settings.newton.clone()
+        };
+        let mut q = self.state.q.clone();
+        let report = solver::minimize(&self.elastic, &mut q, &self.fixed, &settings)?;
+        // No time lag in a static solve: the anchors are checked against the compression
+        // of the equilibrium they are checked at. No return mapping either: without inertia
+        // a coordinate released to slide at the constant Coulomb force has nothing that
+        // bounds its travel within the solve.
+        let limits = self.slip_limits(&q)?;
+        step::finish_friction(&mut self.elastic, &q, &limits);
+        self.state.q = q;
+        self.state.v.fill(0.0);
+        Ok(report)
+    }
+
+    /// Moves pinned nodes by `displacement` (m) before the next step: driven clamps. Their
+    /// velocity stays zero (the move is a prescribed position, not a dynamic state). Errors
+    /// if a node does not exist or is not pinned.
+    pub fn displace_pinned_nodes(
+        &mut self,
+        nodes: &[usize],
+        displacement: V3,
+    ) -> Result<(), SimError> {
+        for &n in nodes {
+            if n >= self.topology.nodes.len() || !self.fixed[self.dofs.x(n)] {
+                return Err(SimError::Invalid(format!("node {n} is not a pinned node")));
+            }
+        }
+        for &n in nodes {
+            let x = self.dofs.x(n);
+            for k in 0..3 {
+                self.state.q[x + k] += displacement[k];
+            }
+        }
+        Ok(())
+    }
+
+    /// The total force (N) that the yarns (elastic terms and gravity) exert on `nodes`:
+    /// `−Σ ∂V/∂x` over their positions. At equilibrium, a clamp holding pinned nodes applies
+    /// the opposite force.
+    pub fn force_on_nodes(&self, nodes: &[usize]) -> V3 {
+        let g = self.elastic.gradient(&self.state.q);
+        let mut f = V3::zeros();
+        for &n in nodes {
+            let x = self.dofs.x(n);
+            f -= V3::new(g[x], g[x + 1], g[x + 2]);
+        }
+        f
+    }
+
+    /// The compression (Eqs. 3–4, both solvers) at every stacked node at the current state,
+    /// with the current force terms. Errors if the topology has no compression rule (see
+    /// [`CompressionEstimator::new`]) or the estimate fails.
+    pub fn compression(&self) -> Result<Vec<NodeCompression>, SimError> {
+        let built;
+        let estimator = match &self.compression {
+            Some(e) => e,
+            None => {
+                built = CompressionEstimator::new(&self.topology, &self.dofs)
+                    .map_err(|e| SimError::Invalid(e.to_string()))?;
+                &built
+            }
+        };
+        estimator
+            .estimate(
+                self.static_terms(),
+                &self.state.q,
+                &self.dofs,
+                self.params.radius,
+                &self.params.compression,
+            )
+            .map_err(|e| SimError::Invalid(e.to_string()))
+    }
+
+    /// Kinetic energy `½ q̇ᵀ M(q) q̇` (J).
+    pub fn kinetic_energy(&self) -> f64 {
+        kinetic_energy(
+            &self.topology,
+            &self.dofs,
+            self.params.linear_density,
+            &self.state,
+        )
+    }
+
+    /// Potential energy (J): elastic terms and gravity at the current state.
+    pub fn potential_energy(&self) -> f64 {
+        self.elastic.energy(&self.state.q)
+    }
+
+    /// Energy (J) of each kind of elastic and gravity term at the current state (the per-term
+    /// energy shares of the rib-stretch figure).
+    pub fn energy_by_kind(&self) -> Vec<(TermKind, f64)> {
+        self.elastic.energy_by_kind(&self.state.q)
+    }
+
+    /// The potential of the backward Euler step: the elastic and gravity terms
+    /// ([`Simulator::static_terms`]) followed by the inertia and damping terms of the last
+    /// (sub)step ([`Simulator::step_terms`]), as one `solver::Problem` (for inspection and
+    /// timing of the assembly, e.g. with [`solver::Assembler`]).
+    pub fn step_potential(&self) -> Concat<'_, Potential, Potential> {
+        Concat::new(&self.elastic, &self.step)
+    }
+
+    /// The elastic and gravity terms (without the per-step inertia and damping).
+    pub fn static_terms(&self) -> &Potential {
+        &self.elastic
+    }
+
+    /// The per-step terms of the last (sub)step: one inertia term per segment, then the
+    /// Rayleigh-β damping forms.
+    pub fn step_terms(&self) -> &Potential {
+        &self.step
+    }
+
+    /// The current state.
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// Replaces the state (same DOF count required), e.g. to start with a velocity.
+    pub fn set_state(&mut self, state: State) -> Result<(), SimError> {
+        if state.q.len() != self.dofs.n_dofs() || state.v.len() != self.dofs.n_dofs() {
+            return Err(SimError::Invalid(
+                "state has the wrong number of DOFs".into(),
+            ));
+        }
+        self.state = state;
+        Ok(())
+    }
+
+    /// The topology.
+    pub fn topology(&self) -> &Topology {
+        &self.topology
+    }
+
+    /// The DOF layout.
+    pub fn dofs(&self) -> &DofMap {
+        &self.dofs
+    }
+
+    /// Which DOFs are held fixed.
+    pub fn fixed(&self) -> &[bool] {
+        &self.fixed
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The step settings.
+    pub fn settings(&self) -> &StepSettings {
+        &self.settings
+    }
+
+    /// Replaces the step settings from the next step on (e.g. a pull at another time step
+    /// from a state settled at a reference one). The Rayleigh-β damping forms are rebuilt
+    /// at the next step; a changed [`StepSettings::wrapping_ramp_time`] moves the wrapping
+    /// rest angles to the new ramp's values at the current time (a jump if the ramp is
+    /// still running). Errors (and changes nothing) if the settings are invalid, switch
+    /// Rayleigh-β damping on or off, or, with β > 0, switch the friction return mapping on
+    /// or off (the friction springs are β-damped only without it).
+    pub fn set_settings(&mut self, settings: StepSettings) -> Result<(), SimError> {
+        settings.validate()?;
+        if settings.rayleigh_beta > 0.0
+            && (settings.friction_return_mapping > 0) != (self.settings.friction_return_mapping > 0)
+        {
+            return Err(SimError::Invalid(
+                "with Rayleigh β damping the friction return mapping cannot be switched on or \
+                 off after construction (friction springs are β-damped only without it)"
+                    .into(),
+            ));
+        }
+        if (settings.rayleigh_beta > 0.0) != (self.settings.rayleigh_beta > 0.0) {
+            // The Rayleigh-β damping terms exist only if β > 0 at construction.
+            return Err(SimError::Invalid(
+                "Rayleigh β damping cannot be switched on or off after construction".into(),
+            ));
+        }
+        self.settings = settings;
+        self.damping_built = None;
+        Ok(())
+    }
+}
+
+/// Checks the inputs of [`Simulator::new`]: parameters, settings, topology, and that the
+/// layout matches the topology.
+fn validate_input(
+    topology: &Topology,
+    layout: &Layout,
+    params: &YarnParams,
+    forces: &ForceSet,
+    settings: &StepSettings,
+) -> Result<(), SimError> {
+    params.validate().map_err(SimError::Invalid)?;
+    settings.validate()?;
+    forces
+        .crossing_shear_params
+        .validate()
+        .map_err(SimError::Invalid)?;
+    topology
+        .validate()
+        .map_err(|e| SimError::Invalid(e.to_string()))?;
+    let slots_match = layout.sliding.len() == topology.nodes.len()
+        && topology
+            .nodes
+            .iter()
+            .zip(&layout.sliding)
+            .all(|(n, s)| n.passes.len() == s.len());
+    if layout.positions.len() != topology.nodes.len() || !slots_match {
+        return Err(SimError::Invalid(
+            "layout does not match the topology".into(),
+        ));
+    }
+    Ok(())
+}

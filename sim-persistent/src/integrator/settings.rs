@@ -1,0 +1,167 @@
+//! The settings, errors and per-step reports of [`super::Simulator`].
+
+use solver::{NewtonReport, NewtonSettings, SolveError};
+
+/// Time-step parameters (SI units).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepSettings {
+    /// Time step h (s). Default 1 ms (seed 000 §5).
+    pub dt: f64,
+    /// Rayleigh mass-damping coefficient α (1/s). Default 0 (Table 1 uses 2–10).
+    pub rayleigh_alpha: f64,
+    /// Rayleigh stiffness-damping coefficient β (s). Default 0 (Table 1 uses 0.01–0.1).
+    pub rayleigh_beta: f64,
+    /// Newton settings of each step. Default: `solver` defaults with a relative gradient
+    /// tolerance of 1e-9, at most 100 iterations (a 10 ms step of the hanging swatch of
+    /// `examples/stability.rs` needs 51–80) and no per-stencil SPD projection: the
+    /// inertia term keeps the step's Hessian positive definite for cloth-sized steps, plain
+    /// Newton then converges in 2–3 iterations where projection needs ≈ 5 (and projects
+    /// every 8 × 8 and 12 × 12 block each iteration); the solver's diagonal shift still
+    /// catches an indefinite Hessian. The linear solver of the Newton system is
+    /// `newton.linear_solver` (sparse Cholesky by default, or preconditioned conjugate
+    /// gradients); [`StepSettings::linearized_implicit_euler`] turns the step into a single
+    /// Newton iteration.
+    pub newton: NewtonSettings,
+    /// How often a step whose Newton solve fails may be halved (recursively). Default 4
+    /// (down to dt/16). A step is also a Newton minimization far from its start when the
+    /// layout is not at rest (no rest-shape compensation yet) and damping is off.
+    pub max_halvings: usize,
+    /// Duration `T` (s) of the ramp of the stitch-wrapping rest angles from the layout's
+    /// angles to ψ₀ (module documentation); `0` applies ψ₀ from the start. Default 0.1 s
+    /// (100 steps of 1 ms), several periods of the slowest loop modes of a swatch of the
+    /// Table 1 yarns, so that the contacts wrap up quasi-statically.
+    pub wrapping_ramp_time: f64,
+    /// Recompute the Rayleigh-β damping matrices `K⁺` every this many (sub)steps (≥ 1);
+    /// in between they stay lagged (only their centres move to `qₙ`), like the lagged mass
+    /// matrix. Default 1: every step (the per-stencil PSD projections of `K⁺` are the largest
+    /// part of a step's setup).
+    pub damping_refresh_steps: usize,
+    /// At most this many re-solves of a step for the implicit stick/slip decision of friction
+    /// (the return mapping of [`crate::forces::friction`], e.g. 20); `0` moves the anchors
+    /// only after the step, as the paper does (explicit update: friction then grows with the
+    /// step). Default 0, the paper's model: with Coulomb-consistent friction yarns slide
+    /// freely through uncompressed contacts, and the return mapping needs
+    /// [`crate::forces::ForceSet::segment_floor`] (default on) and, for consistent results,
+    /// [`crate::forces::ForceSet::loop_contact`] (measured in [`crate::forces::friction`]). A
+    /// step whose modes still change after the last re-solve is kept, its anchors get the
+    /// explicit update, and [`StepReport::friction_unresolved`] counts it. With Rayleigh
+    /// β > 0 the friction springs get no β-damping form under the return mapping (it would
+    /// brake slipping coordinates by `β k_f u̇`). With
+    /// [`StepSettings::linearized_implicit_euler`] each re-solve adds one more Newton
+    /// iteration without line search, so the step is no longer a single linearized solve.
+    pub friction_return_mapping: usize,
+}
+
+impl StepSettings {
+    /// A re-solve budget for [`StepSettings::friction_return_mapping`] that the measured
+    /// runs never exhausted in more than 1 % of their steps (3–11 re-solves per step while
+    /// coordinates slip; `persistent-time-vs-error`, `rib-stretch`).
+    pub const RETURN_MAPPING_RESOLVES: usize = 20;
+}
+
+impl Default for StepSettings {
+    fn default() -> Self {
+        Self {
+            dt: 1e-3,
+            rayleigh_alpha: 0.0,
+            rayleigh_beta: 0.0,
+            newton: NewtonSettings {
+                max_iterations: 100,
+                gradient_rel_tol: 1e-9,
+                project_spd: false,
+                ..NewtonSettings::default()
+            },
+            max_halvings: 4,
+            wrapping_ramp_time: 0.1,
+            damping_refresh_steps: 1,
+            friction_return_mapping: 0,
+        }
+    }
+}
+
+impl StepSettings {
+    /// Checks the ranges (`dt > 0`, `α, β ≥ 0`, valid Newton settings).
+    pub fn validate(&self) -> Result<(), SimError> {
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(SimError::Invalid(format!(
+                "dt must be > 0, got {}",
+                self.dt
+            )));
+        }
+        for (name, v) in [
+            ("Rayleigh α", self.rayleigh_alpha),
+            ("Rayleigh β", self.rayleigh_beta),
+            ("wrapping ramp time", self.wrapping_ramp_time),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(SimError::Invalid(format!("{name} must be ≥ 0, got {v}")));
+            }
+        }
+        if self.damping_refresh_steps == 0 {
+            return Err(SimError::Invalid(
+                "damping_refresh_steps must be ≥ 1".into(),
+            ));
+        }
+        self.newton.validate()?;
+        Ok(())
+    }
+
+    /// These settings with *linearized* implicit Euler: one Newton iteration per step from
+    /// `qₙ`, taken at full length without a line search (the integrator of seed 000's ref. 6,
+    /// Cirio et al. 2014, i.e. Baraff & Witkin 1998's linearized backward Euler:
+    /// `(M + h D + h² K) Δv = h (f − D vₙ − h K vₙ)`, which is exactly the first Newton step on
+    /// the incremental potential). The step is not iterated to convergence; its Newton report
+    /// ends with [`solver::Termination::IterationLimit`] and still records the gradient
+    /// residual of the incremental potential after the iteration
+    /// ([`NewtonReport::residual_history`]), so the linearization error stays visible. A
+    /// step whose linear solve fails (or whose result is not finite) is halved as usual.
+    pub fn linearized_implicit_euler(mut self) -> Self {
+        self.newton.max_iterations = 1;
+        self.newton.line_search = false;
+        self.newton.accept_iteration_limit = true;
+        self
+    }
+}
+
+/// Errors of the simulator.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// Invalid parameters, layout or pins.
+    #[error("invalid simulation input: {0}")]
+    Invalid(String),
+    /// The Newton solve of a step (after all halvings) or of a static equilibrium failed.
+    #[error("Newton solve failed (time step or static equilibrium): {0}")]
+    Solve(#[from] SolveError),
+}
+
+/// What one step did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepReport {
+    /// Newton iterations over all substeps.
+    pub newton_iterations: usize,
+    /// Number of backward Euler solves that succeeded (1 unless the step was halved).
+    pub substeps: usize,
+    /// Number of slips of sliding coordinates (friction anchors moved, Eq. 5), summed over
+    /// the substeps.
+    pub slipped: usize,
+    /// The Newton report of the last successful substep.
+    pub last_newton: Option<NewtonReport>,
+    /// Wall time (s) spent preparing the backward Euler solves, summed over all attempted
+    /// substeps (failed ones included): rest-angle ramp, lagged mass matrices, Rayleigh
+    /// damping forms, `q̂`, and the one-off sparsity pattern and symbolic factorization when
+    /// the Newton solver is (re)built. Timing only; it changes nothing in the step.
+    pub setup_seconds: f64,
+    /// Wall time (s) spent in the Newton minimizations (assembly, line searches, sparse
+    /// Cholesky factorizations and solves), summed over all attempted substeps (failed
+    /// ones included).
+    pub newton_seconds: f64,
+    /// Conjugate-gradient iterations over all accepted Newton iterations of all substeps
+    /// (0 with the sparse Cholesky solver).
+    pub linear_iterations: usize,
+    /// Extra Newton solves of the friction return mapping over all substeps (0 when no
+    /// coordinate changed between sticking and slipping, or with the explicit update).
+    pub friction_resolves: usize,
+    /// Substeps whose return mapping still changed modes after
+    /// [`StepSettings::friction_return_mapping`] re-solves (kept with the explicit update).
+    pub friction_unresolved: usize,
+}
