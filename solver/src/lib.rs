@@ -10,7 +10,7 @@
 //! | [`pcg`] | [`Pcg`]: preconditioned conjugate gradients (Jacobi or IC(0)) on the assembled lower-triangle Hessian, deterministic parallel matrix–vector products |
 //! | [`terms`] | [`Terms`]: the one term container (a [`Problem`]): heterogeneous terms ([`LocalEnergy`], [`RodTerm`] for any `rod::Stencil<N>`) with DOF indices and optional affine offsets |
 //! | [`constrained`] | [`minimize_constrained`] / [`ConstrainedNewtonSolver`]: Newton under linear equality constraints `Cx = d` via the KKT system and sparse LU |
-//! | [`roots`] | [`find_root`]: safeguarded 1-D root finding in a sign-change bracket (Newton with a derivative, bisection without) |
+//! | [`roots`] | [`find_root`]: safeguarded 1-D root finding in a sign-change bracket (Newton with a derivative, bisection without); [`secant`]: from one start point without a bracket (secant, Illinois regula falsi once bracketed, clipped steps, retries of failed evaluations) |
 //! | [`lm`] | [`bounded_lm`]: bounded Levenberg–Marquardt for small least-squares fits (scaled parameters, active set, extra constraints) |
 //! | [`continuation`] | [`march`] (load stepping with step halving and growth) and [`bisect`] (recursive halving of a segment) |
 //!
@@ -95,5 +95,8 @@ pub use newton::{
     LinearSolver, NewtonReport, NewtonSettings, NewtonSolver, NewtonTimings, Termination, minimize,
 };
 pub use pcg::{Pcg, PcgFailure, PcgReport, PcgSettings, Preconditioner};
-pub use roots::{Bracket, Root, RootError, RootEval, RootReport, RootSettings, find_root};
+pub use roots::{
+    Bracket, Root, RootError, RootEval, RootReport, RootSettings, SecantError, SecantEval,
+    SecantReport, SecantRoot, SecantSettings, find_root, secant,
+};
 pub use terms::{LocalEnergy, LocalVector, MAX_TERM_DOFS, RodTerm, Terms};
