@@ -40,7 +40,7 @@ use std::time::Instant;
 
 use nalgebra::Matrix2;
 use rayon::prelude::*;
-use solver::StepError;
+use solver::{DenseEval, DenseNewtonError, DenseNewtonSettings, Probe, StepError, newton_dense};
 
 use crate::coarse::{Coarse, Strain};
 use crate::madypg::{AXIS_NAMES, Database, DatabaseError};
@@ -189,7 +189,7 @@ pub struct PeriodRelaxation {
 }
 
 /// Finds the tile period at which the relaxed tile carries no normal coarse stress
-/// (`P₁₁ = P₂₂ = 0` under `F₂ = diag(a, b)`, Newton on `(a, b)` with a finite-difference
+/// (`P₁₁ = P₂₂ = 0` under `F₂ = diag(a, b)`, [`solver::newton_dense`] on `(a, b)` with a finite-difference
 /// Jacobian of the gathered stress, each stress an equilibrium solve), then re-bases the tile
 /// on that state ([`crate::patterns::rebase_stretched`]) and settles it with
 /// [`relax_reference`]. A file tile relaxed with a yarn model other than its own is otherwise
@@ -236,8 +236,16 @@ fn relax_period_once(
 ) -> Result<(Tile, PeriodRelaxation), GenerationError> {
     let (tile, _) = relax_reference(tile, model, settings)?;
     let mut solves = 0;
+    // Every residual is an equilibrium solve, warm-started from the last iterate's (so the
+    // finite-difference probes start from the state they perturb).
     let mut warm: Option<Vec<f64>> = None;
-    let mut stress_at = |ab: [f64; 2], warm: &mut Option<Vec<f64>>| {
+    let newton = DenseNewtonSettings {
+        residual_tol: tol,
+        max_iterations: 20,
+        fd_step: 1e-4,
+        max_step: 0.05, // at most 5 % per step
+    };
+    let root = newton_dense([1.0, 1.0], &newton, |ab, probe| {
         let coarse = Coarse::in_plane(Matrix2::new(ab[0], 0.0, 0.0, ab[1]));
         solves += 1;
         let eq = solve_equilibrium(&tile, model, coarse, warm.as_deref(), settings).map_err(
@@ -247,54 +255,35 @@ fn relax_period_once(
                 source,
             },
         )?;
-        *warm = Some(eq.dofs.clone());
-        Ok::<_, GenerationError>(eq)
-    };
-    let mut ab = [1.0, 1.0];
-    let h = 1e-4;
-    for _ in 0..20 {
-        let eq = stress_at(ab, &mut warm)?;
-        let r = [eq.stress[(0, 0)], eq.stress[(1, 1)]];
-        if r[0].abs().max(r[1].abs()) <= tol {
-            let relaxed = crate::patterns::rebase_stretched(&tile, ab, &eq.dofs)
-                .map_err(GenerationError::Relax)?;
-            let (relaxed, report) = relax_reference(&relaxed, model, settings)?;
-            return Ok((
-                relaxed,
-                PeriodRelaxation {
-                    stretch: ab,
-                    stress: report.stress,
-                    solves: solves + report.iterations.len(),
-                },
-            ));
+        if probe == Probe::Point {
+            warm = Some(eq.dofs.clone());
         }
-        let base = eq.dofs.clone();
-        let mut jac = Matrix2::zeros();
-        for k in 0..2 {
-            let mut probe = ab;
-            probe[k] += h;
-            let mut start = Some(base.clone());
-            let e = stress_at(probe, &mut start)?;
-            jac[(0, k)] = (e.stress[(0, 0)] - r[0]) / h;
-            jac[(1, k)] = (e.stress[(1, 1)] - r[1]) / h;
-        }
-        let step = jac
-            .try_inverse()
-            .map(|inv| -(inv * nalgebra::Vector2::new(r[0], r[1])))
-            .filter(|d| d.iter().all(|v| v.is_finite()))
-            .ok_or_else(|| {
-                GenerationError::Relax(PatternError::Invalid(
-                    "the period stiffness is singular".into(),
-                ))
-            })?;
-        // At most 5 % per step.
-        let scale = (0.05 / step.amax()).min(1.0);
-        ab = [ab[0] + scale * step[0], ab[1] + scale * step[1]];
-        warm = Some(base);
-    }
-    Err(GenerationError::Relax(PatternError::Invalid(format!(
-        "the period did not relax to |P| <= {tol} N/m in 20 Newton steps"
-    ))))
+        Ok(DenseEval {
+            residual: [eq.stress[(0, 0)], eq.stress[(1, 1)]],
+            jacobian: None,
+            data: eq,
+        })
+    })
+    .map_err(|e| match e {
+        DenseNewtonError::Eval { source, .. } => source,
+        DenseNewtonError::Singular(_) => GenerationError::Relax(PatternError::Invalid(
+            "the period stiffness is singular".into(),
+        )),
+        e => GenerationError::Relax(PatternError::Invalid(format!(
+            "the period did not relax to |P| <= {tol} N/m: {e}"
+        ))),
+    })?;
+    let relaxed = crate::patterns::rebase_stretched(&tile, root.x, &root.data.dofs)
+        .map_err(GenerationError::Relax)?;
+    let (relaxed, report) = relax_reference(&relaxed, model, settings)?;
+    Ok((
+        relaxed,
+        PeriodRelaxation {
+            stretch: root.x,
+            stress: report.stress,
+            solves: solves + report.iterations.len(),
+        },
+    ))
 }
 
 /// The material-space displacement rows `(Δx, Δy, Δz, Δθ)` of the equilibrium DOFs `dofs`

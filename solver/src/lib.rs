@@ -11,6 +11,7 @@
 //! | [`terms`] | [`Terms`]: the one term container (a [`Problem`]): heterogeneous terms ([`LocalEnergy`], [`RodTerm`] for any `rod::Stencil<N>`) with DOF indices and optional affine offsets |
 //! | [`constrained`] | [`minimize_constrained`] / [`ConstrainedNewtonSolver`]: Newton under linear equality constraints `Cx = d` via the KKT system and sparse LU |
 //! | [`roots`] | [`find_root`]: safeguarded 1-D root finding in a sign-change bracket (Newton with a derivative, bisection without); [`secant`]: from one start point without a bracket (secant, Illinois regula falsi once bracketed, clipped steps, retries of failed evaluations) |
+//! | [`dense_newton`] | [`newton_dense`]: Newton for a few equations in as many unknowns (analytic or forward-difference Jacobian, damped steps, loud failure) |
 //! | [`lm`] | [`bounded_lm`]: bounded Levenberg–Marquardt for small least-squares fits (scaled parameters, active set, extra constraints) |
 //! | [`continuation`] | [`march`] (load stepping with step halving and growth) and [`bisect`] (recursive halving of a segment) |
 //!
@@ -71,6 +72,7 @@
 pub mod assembly;
 pub mod constrained;
 pub mod continuation;
+pub mod dense_newton;
 mod error;
 mod linalg;
 pub mod lm;
@@ -88,6 +90,10 @@ pub use constrained::{ConstrainedNewtonSolver, LinearConstraints, minimize_const
 pub use continuation::{
     Attempt, ContinuationError, ContinuationReport, MarchError, MarchSettings, StepError, bisect,
     march,
+};
+pub use dense_newton::{
+    DenseEval, DenseNewtonError, DenseNewtonReport, DenseNewtonSettings, DenseRoot, Probe,
+    newton_dense,
 };
 pub use error::SolveError;
 pub use lm::{LmBounds, LmError, LmEval, LmOutcome, LmSettings, LmTermination, bounded_lm};

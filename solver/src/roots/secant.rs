@@ -131,8 +131,7 @@ pub fn secant<T, E>(
         max_iterations,
         max_retries,
     } = *settings;
-    if !(first_step.is_finite() && first_step > 0.0 && max_step.is_finite() && max_step > 0.0)
-    {
+    if !(first_step.is_finite() && first_step > 0.0 && max_step.is_finite() && max_step > 0.0) {
         return Err(SecantError::InvalidInput(format!(
             "first_step {first_step} and max_step {max_step} must be finite and > 0"
         )));
@@ -285,7 +284,11 @@ mod tests {
         assert!((r.x - 2f64.ln()).abs() <= 1e-13, "{r:?}");
         assert!(r.iterations < 15, "{r:?} {points:?}");
         // The max_step clip: no step longer than 0.2.
-        assert!(points.windows(2).all(|w| (w[1] - w[0]).abs() <= 0.2 + 1e-15));
+        assert!(
+            points
+                .windows(2)
+                .all(|w| (w[1] - w[0]).abs() <= 0.2 + 1e-15)
+        );
     }
 
     #[test]
