@@ -14,6 +14,7 @@
 //! | [`dense_newton`] | [`newton_dense`]: Newton for a few equations in as many unknowns (analytic or forward-difference Jacobian, damped steps, loud failure) |
 //! | [`lm`] | [`bounded_lm`]: bounded Levenberg–Marquardt for small least-squares fits (scaled parameters, active set, extra constraints) |
 //! | [`continuation`] | [`march`] (load stepping with step halving and growth) and [`bisect`] (recursive halving of a segment) |
+//! | [`validation`] | problems with known answers: [`validation::cantilever`] (a clamped rod under a tip load vs beam theory and the elastica) |
 //!
 //! Design rules:
 //!
@@ -81,6 +82,7 @@ mod pattern;
 pub mod pcg;
 pub mod roots;
 pub mod terms;
+pub mod validation;
 
 pub use assembly::{
     Assembled, Assembler, Problem, eval_rod_stencil, eval_rod_stencil_energy_offset,
