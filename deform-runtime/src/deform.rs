@@ -102,7 +102,7 @@ impl<T: Real> Deformer<T> {
                 .iter()
                 .map(|m| T::from_f64(m[2]))
                 .collect(),
-            twist: vec![T::ZERO; n],
+            twist: vec![T::zero(); n],
         };
         Ok(Self {
             geometry: FrameGeometry::new(&mesh),
@@ -342,8 +342,8 @@ impl<T: Real> Deformer<T> {
             .map(|(chunk, (((xs, ys), zs), ts))| {
                 let start = chunk * CHUNK;
                 let mut counters = VertexCounters::default();
-                let mut phase = [Displacement::Known([T::ZERO; 4]); BATCH];
-                let mut dq = [[T::ZERO; 4]; BATCH];
+                let mut phase = [Displacement::Known([T::zero(); 4]); BATCH];
+                let mut dq = [[T::zero(); 4]; BATCH];
                 for b0 in (0..xs.len()).step_by(BATCH) {
                     let len = BATCH.min(xs.len() - b0);
                     for j in 0..len {
