@@ -84,8 +84,9 @@ impl Bend<'_> {
             |&(_, k), _| {
                 let coarse = Coarse::from_strain(&self.strain).bent(self.axis, k);
                 let warm = last.as_deref().unwrap_or(dofs);
-                let eq = solve_equilibrium(self.tile, self.model, coarse, Some(warm), self.settings)
-                    .map_err(StepError::Halve)?;
+                let eq =
+                    solve_equilibrium(self.tile, self.model, coarse, Some(warm), self.settings)
+                        .map_err(StepError::Halve)?;
                 last = Some(eq.dofs);
                 Ok(())
             },
