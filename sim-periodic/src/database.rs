@@ -341,53 +341,15 @@ pub fn generate(
     // returns the equilibrium its children continue from (the parent's when unsolved).
     let solve = |index: [usize; 3], from: (Strain, &[f64])| -> Result<Parent, GenerationError> {
         let strain = strain_at(index);
-        let t = Instant::now();
         let (record, parent) = match store.load(index, strain, tile)? {
             Some((record, dofs)) => (record, (strain, dofs)),
-            None => match continue_to(tile, model, from, strain, settings) {
-                Ok((eq, iterations, substeps)) => {
-                    if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
-                        return Err(GenerationError::NonFinite(strain));
-                    }
-                    let record = SampleRecord {
-                        index,
-                        strain,
-                        density: eq.density,
-                        stress: eq.stress,
-                        iterations,
-                        substeps,
-                        seconds: t.elapsed().as_secs_f64(),
-                        resumed: false,
-                        solved: true,
-                    };
-                    store.save(&record, &eq.dofs)?;
-                    (record, (strain, eq.dofs))
+            None => {
+                let (record, parent) = solve_or_fill(tile, model, index, strain, from, settings)?;
+                if record.solved {
+                    store.save(&record, &parent.1)?;
                 }
-                Err(GenerationError::Solve { .. }) if settings.fill_unsolved => {
-                    let (density, stress) = state_under(tile, model, strain, from.1, settings)
-                        .map_err(|source| GenerationError::Solve {
-                            strain,
-                            bisections: 0,
-                            source,
-                        })?;
-                    if !density.is_finite() || !stress.iter().all(|v| v.is_finite()) {
-                        return Err(GenerationError::NonFinite(strain));
-                    }
-                    let record = SampleRecord {
-                        index,
-                        strain,
-                        density,
-                        stress,
-                        iterations: 0,
-                        substeps: 0,
-                        seconds: t.elapsed().as_secs_f64(),
-                        resumed: false,
-                        solved: false,
-                    };
-                    (record, (from.0, from.1.to_vec()))
-                }
-                Err(e) => return Err(e),
-            },
+                (record, parent)
+            }
         };
         progress(&record);
         results.lock().expect("results lock")[flat(index)] = Some((record, parent.clone()));
@@ -429,9 +391,92 @@ pub fn generate(
         line(1, seed, parent_at(seed))
     })?;
 
+    let results = results.into_inner().expect("results lock");
+    let (database, samples) = database_from(tile, axes, results)?;
+    Ok(Generated {
+        database,
+        samples,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// An equilibrium children continue from: its strain and DOFs.
+type Parent = (Strain, Vec<f64>);
+
+/// A finished sample and the equilibrium behind its row (its own, or its parent's when
+/// unsolved).
+type Solved = (SampleRecord, Parent);
+
+/// Solves the sample `index` (strain `strain_at(index)`) for [`generate`], continuing from
+/// `from` ([`continue_to`]); an unsolved sample with [`DatabaseSettings::fill_unsolved`] gets
+/// the state of `from`'s DOFs under its strain. Returns its record and the equilibrium its
+/// children continue from (`from` itself when unsolved).
+fn solve_or_fill(
+    tile: &Tile,
+    model: &YarnModel,
+    index: [usize; 3],
+    strain: Strain,
+    from: (Strain, &[f64]),
+    settings: &DatabaseSettings,
+) -> Result<Solved, GenerationError> {
+    let t = Instant::now();
+    match continue_to(tile, model, from, strain, settings) {
+        Ok((eq, iterations, substeps)) => {
+            if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
+                return Err(GenerationError::NonFinite(strain));
+            }
+            let record = SampleRecord {
+                index,
+                strain,
+                density: eq.density,
+                stress: eq.stress,
+                iterations,
+                substeps,
+                seconds: t.elapsed().as_secs_f64(),
+                resumed: false,
+                solved: true,
+            };
+            Ok((record, (strain, eq.dofs)))
+        }
+        Err(GenerationError::Solve { .. }) if settings.fill_unsolved => {
+            let (density, stress) =
+                state_under(tile, model, strain, from.1, settings).map_err(|source| {
+                    GenerationError::Solve {
+                        strain,
+                        bisections: 0,
+                        source,
+                    }
+                })?;
+            if !density.is_finite() || !stress.iter().all(|v| v.is_finite()) {
+                return Err(GenerationError::NonFinite(strain));
+            }
+            let record = SampleRecord {
+                index,
+                strain,
+                density,
+                stress,
+                iterations: 0,
+                substeps: 0,
+                seconds: t.elapsed().as_secs_f64(),
+                resumed: false,
+                solved: false,
+            };
+            Ok((record, (from.0, from.1.to_vec())))
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// The database of [`generate`]'s finished samples (in flat sample order): the material
+/// displacement rows of every sample's equilibrium, and the sample records.
+fn database_from(
+    tile: &Tile,
+    axes: [Vec<f64>; 3],
+    results: Vec<Option<Solved>>,
+) -> Result<(Database, Vec<SampleRecord>), GenerationError> {
+    let dims = [axes[0].len(), axes[1].len(), axes[2].len()];
     let n = tile.n_vertices();
     let mut data = vec![[0f32; 4]; n * dims.iter().product::<usize>()];
-    let results = results.into_inner().expect("results lock");
     let mut samples = Vec::with_capacity(results.len());
     let database_index =
         |v: usize, [i, j, k]: [usize; 3]| i + dims[0] * (j + dims[1] * (k + dims[2] * v));
@@ -459,19 +504,8 @@ pub fn generate(
         data,
     };
     database.validate()?;
-    Ok(Generated {
-        database,
-        samples,
-        seconds: start.elapsed().as_secs_f64(),
-    })
+    Ok((database, samples))
 }
-
-/// An equilibrium children continue from: its strain and DOFs.
-type Parent = (Strain, Vec<f64>);
-
-/// A finished sample and the equilibrium behind its row (its own, or its parent's when
-/// unsolved).
-type Solved = (SampleRecord, Parent);
 
 /// Ψ and the gathered stress of the DOFs `dofs` under `strain` (not an equilibrium there).
 fn state_under(
