@@ -18,10 +18,10 @@ use rayon::prelude::*;
 use solver::StepError;
 
 use crate::coarse::{Coarse, Strain};
-use crate::madypg::Database;
 use crate::periodic::{EquilibriumSettings, YarnModel, solve_equilibrium};
 use crate::pullback::pullback;
-use crate::tile::Tile;
+use yarn_pattern::madypg::Database;
+use yarn_pattern::tile::Tile;
 
 /// Material displacement rows `(Δx, Δy, Δz, Δθ)` (m, rad) of the equilibrium `dofs` of
 /// `tile` under the bent `coarse` map ([`pullback`]), in single precision.

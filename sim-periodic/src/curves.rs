@@ -19,9 +19,9 @@ use crate::coarse::Coarse;
 use crate::periodic::{
     Equilibrium, EquilibriumSettings, PeriodicError, YarnModel, solve_equilibrium,
 };
-use crate::tile::Tile;
 use nalgebra::Vector2;
 use solver::{SecantError, SecantEval, SecantSettings, StepError, secant};
+use yarn_pattern::tile::Tile;
 
 /// Named fabric directions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -43,13 +43,13 @@ use rayon::prelude::*;
 use solver::{DenseEval, DenseNewtonError, DenseNewtonSettings, Probe, StepError, newton_dense};
 
 use crate::coarse::{Coarse, Strain};
-use crate::madypg::{AXIS_NAMES, Database, DatabaseError};
 use crate::patterns::{PatternError, RelaxReport, RelaxSettings, relax};
 use crate::periodic::{
     Equilibrium, EquilibriumSettings, PeriodicError, PeriodicTile, YarnModel, initial_dofs,
     solve_equilibrium,
 };
-use crate::tile::Tile;
+use yarn_pattern::madypg::{AXIS_NAMES, Database, DatabaseError};
+use yarn_pattern::tile::Tile;
 
 /// Settings of a database generation.
 #[derive(Clone, Debug)]
@@ -87,7 +87,7 @@ impl Default for DatabaseSettings {
 /// Errors of database generation.
 #[derive(Debug, thiserror::Error)]
 pub enum GenerationError {
-    /// An axis is invalid (see [`crate::madypg`]).
+    /// An axis is invalid (see [`yarn_pattern::madypg`]).
     #[error(transparent)]
     Database(#[from] DatabaseError),
     /// A grid point is not an admissible strain.

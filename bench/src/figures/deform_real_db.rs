@@ -18,8 +18,8 @@ use sim_periodic::database::{
     DatabaseSettings, Generated, generate, relax_reference, uniform_axis,
 };
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel};
-use sim_periodic::pyp::read_pyp;
-use sim_periodic::tile::Tile;
+use yarn_pattern::pyp::read_pyp;
+use yarn_pattern::tile::Tile;
 
 use crate::FigureContext;
 

@@ -2,11 +2,11 @@
 //! resets and re-basing a tile on a solution.
 
 use super::PatternError;
-use crate::tile::{Edge, Tile};
 use nalgebra::{SVector, Vector2, Vector3};
 use rod::geometry::{Frame, reference_twist};
 use rod::material_bending::MaterialBending;
 use rod::twist::Twist;
+use yarn_pattern::tile::{Edge, Tile};
 
 /// One closed periodic yarn: `points` in unwrapped coordinates (m); after the last point the
 /// yarn continues to `points[0]` shifted by `shift` periods.

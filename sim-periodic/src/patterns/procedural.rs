@@ -2,9 +2,9 @@
 
 use super::PatternError;
 use super::builder::{Yarn, tile_from_yarns};
-use crate::tile::Tile;
 use nalgebra::Vector3;
 use std::f64::consts::{PI, TAU};
+use yarn_pattern::tile::Tile;
 
 /// The procedural patterns of the library.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

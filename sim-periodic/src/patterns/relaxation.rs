@@ -6,10 +6,10 @@ use crate::coarse::Coarse;
 use crate::periodic::{
     Equilibrium, EquilibriumSettings, PeriodicTile, YarnModel, initial_dofs, solve_equilibrium,
 };
-use crate::tile::Tile;
 use nalgebra::{Matrix2, Vector3};
 use rod::contact::closest_points;
 use std::time::Instant;
+use yarn_pattern::tile::Tile;
 
 /// Settings of [`relax`].
 #[derive(Clone, Debug)]
