@@ -121,7 +121,7 @@ pub use relaxation::{Clearance, RelaxReport, RelaxSettings, min_clearance, relax
 
 use crate::periodic::PeriodicError;
 #[cfg(doc)]
-use crate::{periodic::solve_equilibrium, tile::Tile};
+use {crate::periodic::solve_equilibrium, yarn_pattern::tile::Tile};
 use yarn_pattern::tile::TileError;
 
 /// Errors of pattern generation and relaxation.
