@@ -120,9 +120,9 @@ pub use procedural::{Pattern, PatternParams};
 pub use relaxation::{Clearance, RelaxReport, RelaxSettings, min_clearance, relax};
 
 use crate::periodic::PeriodicError;
+use yarn_pattern::tile::TileError;
 #[cfg(doc)]
 use {crate::periodic::solve_equilibrium, yarn_pattern::tile::Tile};
-use yarn_pattern::tile::TileError;
 
 /// Errors of pattern generation and relaxation.
 #[derive(Debug, thiserror::Error)]
