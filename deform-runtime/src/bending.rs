@@ -136,9 +136,9 @@ impl<T: Real> BendingDatabase<T> {
         let wk = locate(&self.kappas, kappa);
         let a = dbs[wk.lo as usize].interpolate(vertex, w);
         let b = dbs[wk.hi as usize].interpolate(vertex, w);
-        let mut out = [T::ZERO; 4];
+        let mut out = [T::zero(); 4];
         for c in 0..4 {
-            out[c] = (T::ONE - wk.t) * a[c] + wk.t * b[c];
+            out[c] = (T::one() - wk.t) * a[c] + wk.t * b[c];
         }
         out
     }
@@ -155,9 +155,9 @@ impl<T: Real> BendingDatabase<T> {
         let x2 = self.lookup_weighted(x, vertex, &w, l2);
         let y2 = self.lookup_weighted(y, vertex, &w, l2);
         let y1 = self.lookup_weighted(y, vertex, &w, l1);
-        let zero = self.lookup_weighted(x, vertex, &w, T::ZERO);
-        let d2 = T::ONE - c2;
-        let mut out = [T::ZERO; 4];
+        let zero = self.lookup_weighted(x, vertex, &w, T::zero());
+        let d2 = T::one() - c2;
+        let mut out = [T::zero(); 4];
         for c in 0..4 {
             out[c] = c2 * x1[c] + d2 * x2[c] + c2 * y2[c] + d2 * y1[c] - zero[c];
         }
@@ -174,9 +174,9 @@ pub fn curvature_tensor<T: Real>(i: [T; 3], ii: [T; 3]) -> [T; 3] {
     let [a, b, c] = i;
     // √I = (I + √det I · Id) / √(tr I + 2 √det I).
     let s = (a * c - b * b).sqrt();
-    let t = T::ONE / (a + c + s + s).sqrt();
+    let t = T::one() / (a + c + s + s).sqrt();
     let (f11, f12, f22) = ((a + s) * t, b * t, (c + s) * t);
-    let inv_det = T::ONE / (f11 * f22 - f12 * f12);
+    let inv_det = T::one() / (f11 * f22 - f12 * f12);
     let (g11, g12, g22) = (f22 * inv_det, -f12 * inv_det, f11 * inv_det);
     // K = G II G with G = F⁻¹ (all symmetric).
     let [p, q, r] = ii;
@@ -199,10 +199,10 @@ pub fn principal_curvatures<T: Real>(k: [T; 3]) -> (T, T, T) {
     let h = half * (k[0] - k[2]);
     let d = (h * h + k[1] * k[1]).sqrt();
     // c² = P₁₁ of the projector P₁ = (K − λ₂ Id) / (λ₁ − λ₂).
-    let c2 = if d > T::ZERO {
+    let c2 = if d > T::zero() {
         (h + d) / (d + d)
     } else {
-        T::ONE
+        T::one()
     };
     (m + d, m - d, c2)
 }
@@ -225,15 +225,15 @@ pub fn explicit_displacement<T: Real>(
 ) -> [T; 4] {
     let o = input.options;
     if !o.displacement {
-        return [T::ZERO; 4];
+        return [T::zero(); 4];
     }
     if o.skip_identity && input.skip[triangle as usize] != 0 {
         counters.lookups_skipped += 1;
         return input.rest_dq[tile_vertex as usize];
     }
     let fp = &input.faces[triangle as usize];
-    let mut i = [T::ZERO; 3];
-    let mut ii = [T::ZERO; 3];
+    let mut i = [T::zero(); 3];
+    let mut ii = [T::zero(); 3];
     for c in 0..3 {
         i[c] = fp.i0[c] + fp.il[c] * du + fp.il[3 + c] * dv;
         ii[c] = fp.ii0[c] + fp.iil[c] * du + fp.iil[3 + c] * dv;
@@ -257,7 +257,7 @@ mod tests {
     #[test]
     fn curvature_tensor_of_a_stretched_cylinder() {
         // F = diag(1.2, 0.9): II = Fᵀ(κ e₁e₁ᵀ)F has II₁₁ = 1.44 κ; K recovers κ e₁e₁ᵀ.
-        let kappa = 30.0;
+        let kappa: f64 = 30.0;
         let i = [1.44, 0.0, 0.81];
         let k = curvature_tensor(i, [1.44 * kappa, 0.0, 0.0]);
         assert!((k[0] - kappa).abs() < 1e-12 && k[1].abs() < 1e-12 && k[2].abs() < 1e-12);
@@ -294,7 +294,7 @@ mod tests {
         let (l1, l2, c2) = principal_curvatures([-2.0, 0.0, 5.0]);
         assert_eq!((l1, l2, c2), (5.0, -2.0, 0.0));
         // Bend along the diagonal: K = κ/2 [1 1; 1 1].
-        let (l1, l2, c2) = principal_curvatures([2.0, 2.0, 2.0]);
+        let (l1, l2, c2) = principal_curvatures([2.0f64, 2.0, 2.0]);
         assert!((l1 - 4.0).abs() < 1e-12 && l2.abs() < 1e-12 && (c2 - 0.5).abs() < 1e-12);
         let (l1, l2, c2) = principal_curvatures([3.0, 0.0, 3.0]);
         assert_eq!((l1, l2, c2), (3.0, 3.0, 1.0));

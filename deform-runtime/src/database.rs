@@ -41,14 +41,14 @@ pub fn locate<T: Real>(axis: &[T], s: T) -> AxisWeight<T> {
         return AxisWeight {
             lo: 0,
             hi: if n < 2 { 0 } else { 1 },
-            t: T::ZERO,
+            t: T::zero(),
         };
     }
     if s >= axis[n - 1] {
         return AxisWeight {
             lo: (n - 2) as u32,
             hi: (n - 1) as u32,
-            t: T::ONE,
+            t: T::one(),
         };
     }
     // axis[0] < s < axis[n-1]: the interval [axis[k], axis[k+1]) containing s.
@@ -88,7 +88,7 @@ pub fn locate_uniform<T: Real>(n: usize, a0: T, inv_h: T, s: T) -> AxisWeight<T>
     let last = T::from_f64((n - 1) as f64);
     let t = (s - a0) * inv_h;
     // Comparisons instead of `max`/`min` (cheaper on baseline x86-64); NaN fails `t > 0`.
-    let t = if t > T::ZERO { t } else { T::ZERO };
+    let t = if t > T::zero() { t } else { T::zero() };
     let t = if t < last { t } else { last };
     // Integer part, at most n − 2 so that `hi` stays in range (t = n − 1 gives weight 1).
     let k = t.to_index().min(n as u32 - 2);
@@ -218,14 +218,14 @@ impl<T: Real> RuntimeDatabase<T> {
         let [nx, na, ny] = self.shape();
         let base = vertex * nx * na * ny;
         let row = |ia: u32, iy: u32| base + nx * (ia as usize + na * iy as usize);
-        let mut out = [T::ZERO; 4];
+        let mut out = [T::zero(); 4];
         let corners = [
-            (w[1].lo, w[2].lo, (T::ONE - w[1].t) * (T::ONE - w[2].t)),
-            (w[1].hi, w[2].lo, w[1].t * (T::ONE - w[2].t)),
-            (w[1].lo, w[2].hi, (T::ONE - w[1].t) * w[2].t),
+            (w[1].lo, w[2].lo, (T::one() - w[1].t) * (T::one() - w[2].t)),
+            (w[1].hi, w[2].lo, w[1].t * (T::one() - w[2].t)),
+            (w[1].lo, w[2].hi, (T::one() - w[1].t) * w[2].t),
             (w[1].hi, w[2].hi, w[1].t * w[2].t),
         ];
-        let (tx0, tx1) = (T::ONE - w[0].t, w[0].t);
+        let (tx0, tx1) = (T::one() - w[0].t, w[0].t);
         for (ia, iy, wy) in corners {
             let r = row(ia, iy);
             let a = &self.texels[r + w[0].lo as usize];
@@ -248,7 +248,7 @@ impl<T: Real> RuntimeDatabase<T> {
     /// is skipped so that skipping does not change results.
     pub fn rest_displacements(&self) -> Vec<[T; 4]> {
         (0..self.n_vertices)
-            .map(|v| self.lookup(v, [T::ZERO; 3]))
+            .map(|v| self.lookup(v, [T::zero(); 3]))
             .collect()
     }
 }

@@ -102,7 +102,7 @@ impl<T: Real> Deformer<T> {
                 .iter()
                 .map(|m| T::from_f64(m[2]))
                 .collect(),
-            twist: vec![T::ZERO; n],
+            twist: vec![T::zero(); n],
         };
         Ok(Self {
             geometry: FrameGeometry::new(&mesh),
@@ -266,62 +266,74 @@ impl<T: Real> Deformer<T> {
                 pattern: self.db.n_vertices(),
             });
         }
-        let input = KernelInputs {
-            faces: &self.geometry.face_poly,
-            skip: &self.geometry.face_skip,
-            db: &self.db,
-            rest_dq: &self.rest_dq,
-            twists: &self.twists,
-            options: &self.options,
-            eigen_floor: self.eigen_floor(),
-        };
-        let e = &self.embedding;
-        let out = &mut self.output;
-        Ok(out
-            .x
-            .par_chunks_mut(CHUNK)
-            .zip(out.y.par_chunks_mut(CHUNK))
-            .zip(out.z.par_chunks_mut(CHUNK))
-            .zip(out.twist.par_chunks_mut(CHUNK))
-            .enumerate()
-            .map(|(chunk, (((xs, ys), zs), ts))| {
-                let start = chunk * CHUNK;
-                let mut counters = VertexCounters::default();
-                for j in 0..xs.len() {
-                    let k = start + j;
-                    let (f, du, dv, h, v) = (
+        Ok(self.map_chunks(|input, e, start, out, counters| {
+            for j in 0..out[0].len() {
+                let k = start + j;
+                let (f, du, dv, h, v) = (
+                    e.triangle[k],
+                    e.du[k],
+                    e.dv[k],
+                    e.height[k],
+                    e.tile_vertex[k],
+                );
+                let dq =
+                    crate::bending::explicit_displacement(input, bending, f, du, dv, v, counters);
+                store(out, j, vertex_map(input, f, du, dv, h, v, dq), counters);
+            }
+        }))
+    }
+
+    fn vertex_stage(&mut self) -> VertexCounters {
+        self.map_chunks(|input, e, start, out, counters| {
+            let mut phase = [Displacement::Known([T::zero(); 4]); BATCH];
+            let mut dq = [[T::zero(); 4]; BATCH];
+            let n = out[0].len();
+            for b0 in (0..n).step_by(BATCH) {
+                let len = BATCH.min(n - b0);
+                for j in 0..len {
+                    let k = start + b0 + j;
+                    phase[j] = vertex_strain(
+                        input,
                         e.triangle[k],
                         e.du[k],
                         e.dv[k],
                         e.height[k],
                         e.tile_vertex[k],
+                        counters,
                     );
-                    let dq = crate::bending::explicit_displacement(
-                        &input,
-                        bending,
-                        f,
-                        du,
-                        dv,
-                        v,
-                        &mut counters,
-                    );
-                    let (x, t) = vertex_map(&input, f, du, dv, h, v, dq);
-                    if x.iter().all(|c| c.is_finite()) && t.is_finite() {
-                        xs[j] = x[0];
-                        ys[j] = x[1];
-                        zs[j] = x[2];
-                        ts[j] = t;
-                    } else {
-                        counters.nonfinite_output += 1;
-                    }
                 }
-                counters.processed = xs.len();
-                counters
-            })
-            .reduce(VertexCounters::default, |a, b| a + b))
+                for j in 0..len {
+                    let k = start + b0 + j;
+                    dq[j] = match phase[j] {
+                        Displacement::Known(d) => d,
+                        Displacement::Lookup(s) => input.db.lookup(e.tile_vertex[k] as usize, s),
+                    };
+                }
+                for j in 0..len {
+                    let k = start + b0 + j;
+                    let mapped = vertex_map(
+                        input,
+                        e.triangle[k],
+                        e.du[k],
+                        e.dv[k],
+                        e.height[k],
+                        e.tile_vertex[k],
+                        dq[j],
+                    );
+                    store(out, b0 + j, mapped, counters);
+                }
+            }
+        })
     }
 
-    fn vertex_stage(&mut self) -> VertexCounters {
+    /// Runs `chunk(input, embedding, start, [x, y, z, twist], counters)` on the output in
+    /// parallel chunks of [`CHUNK`] vertices (`start`: the chunk's first vertex) and sums the
+    /// counters (`processed` set to the chunk length).
+    fn map_chunks(
+        &mut self,
+        chunk: impl Fn(&KernelInputs<T>, &Embedding<T>, usize, &mut [&mut [T]; 4], &mut VertexCounters)
+        + Sync,
+    ) -> VertexCounters {
         let input = KernelInputs {
             faces: &self.geometry.face_poly,
             skip: &self.geometry.face_skip,
@@ -339,58 +351,32 @@ impl<T: Real> Deformer<T> {
             .zip(out.z.par_chunks_mut(CHUNK))
             .zip(out.twist.par_chunks_mut(CHUNK))
             .enumerate()
-            .map(|(chunk, (((xs, ys), zs), ts))| {
-                let start = chunk * CHUNK;
+            .map(|(c, (((xs, ys), zs), ts))| {
                 let mut counters = VertexCounters::default();
-                let mut phase = [Displacement::Known([T::ZERO; 4]); BATCH];
-                let mut dq = [[T::ZERO; 4]; BATCH];
-                for b0 in (0..xs.len()).step_by(BATCH) {
-                    let len = BATCH.min(xs.len() - b0);
-                    for j in 0..len {
-                        let k = start + b0 + j;
-                        phase[j] = vertex_strain(
-                            &input,
-                            e.triangle[k],
-                            e.du[k],
-                            e.dv[k],
-                            e.height[k],
-                            e.tile_vertex[k],
-                            &mut counters,
-                        );
-                    }
-                    for j in 0..len {
-                        let k = start + b0 + j;
-                        dq[j] = match phase[j] {
-                            Displacement::Known(d) => d,
-                            Displacement::Lookup(s) => {
-                                input.db.lookup(e.tile_vertex[k] as usize, s)
-                            }
-                        };
-                    }
-                    for j in 0..len {
-                        let k = start + b0 + j;
-                        let (x, t) = vertex_map(
-                            &input,
-                            e.triangle[k],
-                            e.du[k],
-                            e.dv[k],
-                            e.height[k],
-                            e.tile_vertex[k],
-                            dq[j],
-                        );
-                        if x.iter().all(|c| c.is_finite()) && t.is_finite() {
-                            xs[b0 + j] = x[0];
-                            ys[b0 + j] = x[1];
-                            zs[b0 + j] = x[2];
-                            ts[b0 + j] = t;
-                        } else {
-                            counters.nonfinite_output += 1;
-                        }
-                    }
-                }
-                counters.processed = xs.len();
+                let n = xs.len();
+                chunk(&input, e, c * CHUNK, &mut [xs, ys, zs, ts], &mut counters);
+                counters.processed = n;
                 counters
             })
             .reduce(VertexCounters::default, |a, b| a + b)
+    }
+}
+
+/// Writes vertex `j`'s mapped position and twist into the chunk `out` (`[x, y, z, twist]`), or
+/// counts it as non-finite (leaving the previous output).
+#[inline(always)]
+fn store<T: Real>(
+    out: &mut [&mut [T]; 4],
+    j: usize,
+    (x, t): ([T; 3], T),
+    counters: &mut VertexCounters,
+) {
+    if x.iter().all(|c| c.is_finite()) && t.is_finite() {
+        out[0][j] = x[0];
+        out[1][j] = x[1];
+        out[2][j] = x[2];
+        out[3][j] = t;
+    } else {
+        counters.nonfinite_output += 1;
     }
 }

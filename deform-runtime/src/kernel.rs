@@ -167,14 +167,14 @@ pub fn clamp_eigenvalues<T: Real>(i: [T; 3], floor: T) -> ([T; 3], bool) {
         return (i, false);
     }
     let l1 = (m + d).max(floor);
-    if d > T::ZERO {
+    if d > T::zero() {
         // P₁ = (I − λ₂ Id) / (λ₁ − λ₂), the projector on the larger eigenvector.
-        let inv = T::ONE / (d + d);
+        let inv = T::one() / (d + d);
         let (p_a, p_b, p_c) = ((a - l2) * inv, b * inv, (c - l2) * inv);
         let k = l1 - floor;
         ([floor + k * p_a, k * p_b, floor + k * p_c], true)
     } else {
-        ([floor, T::ZERO, floor], true)
+        ([floor, T::zero(), floor], true)
     }
 }
 
@@ -182,7 +182,7 @@ pub fn clamp_eigenvalues<T: Real>(i: [T; 3], floor: T) -> ([T; 3], bool) {
 #[inline(always)]
 pub fn strains<T: Real>(i: [T; 3]) -> [T; 3] {
     let (a, c) = (i[0].sqrt(), i[2].sqrt());
-    [a - T::ONE, i[1] / (a * c), c - T::ONE]
+    [a - T::one(), i[1] / (a * c), c - T::one()]
 }
 
 /// What the first phase of the kernel decided for one vertex.
@@ -209,14 +209,14 @@ pub fn vertex_strain<T: Real>(
 ) -> Displacement<T> {
     let o = input.options;
     if !o.displacement {
-        return Displacement::Known([T::ZERO; 4]);
+        return Displacement::Known([T::zero(); 4]);
     }
     if o.skip_identity && input.skip[triangle as usize] != 0 {
         counters.lookups_skipped += 1;
         return Displacement::Known(input.rest_dq[tile_vertex as usize]);
     }
     let fp = &input.faces[triangle as usize];
-    let mut i = [T::ZERO; 3];
+    let mut i = [T::zero(); 3];
     for c in 0..3 {
         i[c] = fp.i0[c] + fp.il[c] * du + fp.il[3 + c] * dv;
     }
@@ -253,8 +253,8 @@ pub fn vertex_map<T: Real>(
     let fp = &input.faces[triangle as usize];
     let (u, v, h) = (du + dq[0], dv + dq[1], height + dq[2]);
     let (uu, uv, vv) = (u * u, u * v, v * v);
-    let mut x = [T::ZERO; 3];
-    let mut n = [T::ZERO; 3];
+    let mut x = [T::zero(); 3];
+    let mut n = [T::zero(); 3];
     for c in 0..3 {
         x[c] = fp.x0[c]
             + fp.xl[c] * u
@@ -265,8 +265,8 @@ pub fn vertex_map<T: Real>(
         n[c] = fp.n0[c] + fp.nl[c] * u + fp.nl[3 + c] * v;
     }
     let len2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
-    let n = if len2 > T::ZERO {
-        let inv = T::ONE / len2.sqrt();
+    let n = if len2 > T::zero() {
+        let inv = T::one() / len2.sqrt();
         [n[0] * inv, n[1] * inv, n[2] * inv]
     } else {
         fp.nf

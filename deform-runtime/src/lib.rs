@@ -26,7 +26,7 @@
 //!   exact ray–capsule hits, depth buffer, Lambert + ambient) and a minimal PNG encoder.
 //! - [`pipeline`]: loading pattern + database + mesh from files into a [`Deformer`]; used
 //!   by the `deform-runtime` CLI.
-//! - [`real`]: the scalar trait (`f32`/`f64`).
+//! - [`real`]: the scalar trait (`f32`/`f64`): num-traits' `Float` plus two `as` casts.
 //! - [`synthetic`]: grid / cylinder meshes and databases with known ΔQ for tests, benches and
 //!   figures.
 //!
@@ -82,4 +82,4 @@ pub use deform::{DeformOptions, Deformer, FrameStats};
 pub use embed::{EmbedOptions, Embedding, embed};
 pub use error::{DeformError, Result};
 pub use mesh::{FrameGeometry, RestMesh};
-pub use real::Real;
+pub use real::{AsPrimitive, Float, Real};

@@ -1,79 +1,34 @@
 //! The floating-point type of the per-frame pipeline: `f32` (the production path, as on the GPU)
 //! or `f64` (the reference path used for exactness tests and precision studies).
+//!
+//! [`Real`] is num-traits' [`Float`] (arithmetic, `sqrt`, `abs`, `min`, `max`, `is_finite`,
+//! `T::zero()`, `T::one()`, all forwarding to the primitive methods, so results are
+//! bit-identical to plain `f32`/`f64` code) with [`AsPrimitive<f64>`] for exact widening
+//! (`x.as_()`, i.e. `x as f64`). The extension adds only the two conversions `Float` lacks in
+//! infallible form (its `NumCast::from` and `ToPrimitive` return `Option`): rounding an `f64`
+//! to the type and truncating to an index, both Rust's `as` casts.
 
 use std::fmt::Debug;
-use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
+use std::ops::AddAssign;
 
-/// A scalar the deformer can run in (`f32` or `f64`).
+pub use num_traits::{AsPrimitive, Float};
+
+/// A scalar the deformer can run in (`f32` or `f64`): [`Float`] plus the `as` casts it lacks.
 pub trait Real:
-    Copy
-    + Debug
-    + Default
-    + PartialOrd
-    + Send
-    + Sync
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
-    + AddAssign
-    + 'static
+    Float + AsPrimitive<f64> + Debug + Default + Send + Sync + AddAssign + 'static
 {
-    /// 0.
-    const ZERO: Self;
-    /// 1.
-    const ONE: Self;
-    /// Rounds an `f64` to this type.
+    /// Rounds an `f64` to this type (`x as Self`: round to nearest).
     fn from_f64(x: f64) -> Self;
-    /// Widens to `f64`.
-    fn to_f64(self) -> f64;
-    /// Square root.
-    fn sqrt(self) -> Self;
-    /// Whether the value is neither NaN nor infinite.
-    fn is_finite(self) -> bool;
-    /// The larger of two values (NaN-ignoring like `f32::max`).
-    fn max(self, other: Self) -> Self;
-    /// The smaller of two values (NaN-ignoring like `f32::min`).
-    fn min(self, other: Self) -> Self;
-    /// Absolute value.
-    fn abs(self) -> Self;
-    /// Truncation to an index (saturating; NaN gives 0).
+    /// Truncation to an index (`self as u32`: saturating; NaN gives 0).
     fn to_index(self) -> u32;
 }
 
 macro_rules! impl_real {
     ($t:ty) => {
         impl Real for $t {
-            const ZERO: Self = 0.0;
-            const ONE: Self = 1.0;
             #[inline(always)]
             fn from_f64(x: f64) -> Self {
                 x as $t
-            }
-            #[inline(always)]
-            fn to_f64(self) -> f64 {
-                self as f64
-            }
-            #[inline(always)]
-            fn sqrt(self) -> Self {
-                <$t>::sqrt(self)
-            }
-            #[inline(always)]
-            fn is_finite(self) -> bool {
-                <$t>::is_finite(self)
-            }
-            #[inline(always)]
-            fn max(self, other: Self) -> Self {
-                <$t>::max(self, other)
-            }
-            #[inline(always)]
-            fn min(self, other: Self) -> Self {
-                <$t>::min(self, other)
-            }
-            #[inline(always)]
-            fn abs(self) -> Self {
-                <$t>::abs(self)
             }
             #[inline(always)]
             fn to_index(self) -> u32 {

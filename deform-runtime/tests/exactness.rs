@@ -25,14 +25,14 @@ fn max_error<T: Real>(d: &Deformer<T>, tile: &Tile, s: [f64; 3]) -> (f64, f64) {
             e.material[k][2] + q[2],
         ];
         let expected = [f[0] * x[0] + f[1] * x[1], f[2] * x[0] + f[3] * x[1], x[2]];
-        let got = [out.x[k].to_f64(), out.y[k].to_f64(), out.z[k].to_f64()];
+        let got = [out.x[k].as_(), out.y[k].as_(), out.z[k].as_()];
         let err = (0..3)
             .map(|c| (got[c] - expected[c]).powi(2))
             .sum::<f64>()
             .sqrt();
         worst = worst.max(err);
         let twist = tile.twists[v] + q[3];
-        worst_twist = worst_twist.max((out.twist[k].to_f64() - twist).abs());
+        worst_twist = worst_twist.max((out.twist[k].as_() - twist).abs());
     }
     (worst, worst_twist)
 }

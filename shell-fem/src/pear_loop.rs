@@ -14,13 +14,13 @@
 //! largest horizontal extent, aspect ratio `r = h/p`.
 
 use faer::linalg::solvers::Solve;
-use faer::sparse::{SparseColMat, Triplet};
-use solver::{NewtonSettings, NewtonSolver, Problem};
+use faer::sparse::SparseColMat;
+use solver::{NewtonSettings, NewtonSolver};
 
 use crate::ShellError;
 use crate::elements::BendingParams;
 use crate::material::Material;
-use crate::shell::{Gravity, Shell, ShellOptions, TriMesh};
+use crate::shell::{FreeDofs, Gravity, Shell, ShellOptions, TriMesh, free_hessian};
 
 /// Geometry and discretization of the pear-loop test.
 #[derive(Clone, Debug, PartialEq)]
@@ -323,37 +323,9 @@ impl PearLoop {
     pub fn ratio_sensitivity(&self) -> Result<[f64; 3], ShellError> {
         let n = self.x.len();
         let nv = n / 3;
-        let mut free_index = vec![usize::MAX; n];
-        let mut nf = 0;
-        for d in 0..n {
-            if !self.fixed[d] {
-                free_index[d] = nf;
-                nf += 1;
-            }
-        }
-        let mut triplets = Vec::new();
-        let mut grad = [0.0; 12];
-        let mut hess = [0.0; 144];
-        for k in 0..self.shell.n_stencils() {
-            let dofs = self.shell.stencil_dofs(k);
-            let m = dofs.len();
-            grad[..m].fill(0.0);
-            hess[..m * m].fill(0.0);
-            self.shell
-                .eval_stencil(k, &self.x, &mut grad[..m], Some(&mut hess[..m * m]));
-            for (b, &db) in dofs.iter().enumerate() {
-                let fb = free_index[db];
-                if fb == usize::MAX {
-                    continue;
-                }
-                for (a, &da) in dofs.iter().enumerate() {
-                    let fa = free_index[da];
-                    if fa != usize::MAX {
-                        triplets.push(Triplet::new(fa, fb, hess[a + m * b]));
-                    }
-                }
-            }
-        }
+        let free = FreeDofs::new(&self.fixed[..n]);
+        let (free_index, nf) = (&free.index, free.n);
+        let triplets = free_hessian(&self.shell, &self.x, &free, |_, _, _| {});
         // ∂r/∂x for r = h/p, h = −z_low, p = x_right − x_left (same extreme nodes as `shape`).
         let arg = |key: &dyn Fn(usize) -> f64| {
             (0..nv).fold(0, |best, v| if key(v) < key(best) { v } else { best })

@@ -354,3 +354,61 @@ impl Problem for Shell {
         self.terms.stencil_energy(k, x)
     }
 }
+
+/// The free-DOF numbering of a Dirichlet mask: `index[d]` is the free index of DOF `d`
+/// (`usize::MAX` where fixed), `n` the number of free DOFs.
+pub(crate) struct FreeDofs {
+    pub index: Vec<usize>,
+    pub n: usize,
+}
+
+impl FreeDofs {
+    pub fn new(fixed: &[bool]) -> Self {
+        let mut index = vec![usize::MAX; fixed.len()];
+        let mut n = 0;
+        for (d, &f) in fixed.iter().enumerate() {
+            if !f {
+                index[d] = n;
+                n += 1;
+            }
+        }
+        Self { index, n }
+    }
+}
+
+/// The exact (unprojected) Hessian of `shell` at `x`, stencil by stencil: the triplets
+/// `(free a, free b, h)` of the free–free block in stencil order, and `fixed_row(a, fb, h)`
+/// for every entry of a free column `fb` in a fixed row `a` (for adjoint right-hand sides).
+pub(crate) fn free_hessian(
+    shell: &Shell,
+    x: &[f64],
+    free: &FreeDofs,
+    mut fixed_row: impl FnMut(usize, usize, f64),
+) -> Vec<faer::sparse::Triplet<usize, usize, f64>> {
+    let mut triplets = Vec::new();
+    let mut grad = [0.0; 12];
+    let mut hess = [0.0; 144];
+    for k in 0..shell.n_stencils() {
+        let dofs = shell.stencil_dofs(k);
+        let m = dofs.len();
+        grad[..m].fill(0.0);
+        hess[..m * m].fill(0.0);
+        shell.eval_stencil(k, x, &mut grad[..m], Some(&mut hess[..m * m]));
+        for (b, &db) in dofs.iter().enumerate() {
+            let fb = free.index[db];
+            if fb == usize::MAX {
+                continue;
+            }
+            for (a, &da) in dofs.iter().enumerate() {
+                let h = hess[a + m * b];
+                let fa = free.index[da];
+                if fa != usize::MAX {
+                    triplets.push(faer::sparse::Triplet::new(fa, fb, h));
+                } else {
+                    fixed_row(da, fb, h);
+                }
+            }
+        }
+    }
+    triplets
+}

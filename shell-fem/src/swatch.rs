@@ -18,13 +18,13 @@
 //! one corner to remove the free translation.
 
 use faer::linalg::solvers::Solve;
-use faer::sparse::{SparseColMat, Triplet};
+use faer::sparse::SparseColMat;
 use serde::{Deserialize, Serialize};
 use solver::{MarchError, MarchSettings, NewtonSettings, NewtonSolver, Problem, StepError, march};
 
 use crate::ShellError;
 use crate::material::{InPlaneParams, Material};
-use crate::shell::{Shell, ShellOptions, TriMesh};
+use crate::shell::{FreeDofs, Shell, ShellOptions, TriMesh, free_hessian};
 
 /// How the end nodes are held.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -393,45 +393,18 @@ impl StretchTest {
     /// `∂g/∂p_k` is [`Shell::membrane_param_gradient`].
     pub fn sensitivities(&self) -> Result<Sensitivity, ShellError> {
         let n = self.x.len();
-        let mut free_index = vec![usize::MAX; n];
-        let mut nf = 0;
-        for d in 0..n {
-            if !self.fixed[d] {
-                free_index[d] = nf;
-                nf += 1;
-            }
-        }
+        let free = FreeDofs::new(&self.fixed[..n]);
+        let (free_index, nf) = (&free.index, free.n);
         let mut is_right_x = vec![false; n];
         for &v in &self.right {
             is_right_x[2 * v] = true;
         }
-        let mut triplets = Vec::new();
         let mut dforce_dx = vec![0.0; nf];
-        let mut grad = [0.0; 9];
-        let mut hess = [0.0; 81];
-        for k in 0..self.shell.n_stencils() {
-            let dofs = self.shell.stencil_dofs(k);
-            let m = dofs.len();
-            grad[..m].fill(0.0);
-            hess[..m * m].fill(0.0);
-            self.shell
-                .eval_stencil(k, &self.x, &mut grad[..m], Some(&mut hess[..m * m]));
-            for (b, &db) in dofs.iter().enumerate() {
-                let fb = free_index[db];
-                if fb == usize::MAX {
-                    continue;
-                }
-                for (a, &da) in dofs.iter().enumerate() {
-                    let h = hess[a + m * b];
-                    let fa = free_index[da];
-                    if fa != usize::MAX {
-                        triplets.push(Triplet::new(fa, fb, h));
-                    } else if is_right_x[da] {
-                        dforce_dx[fb] += h;
-                    }
-                }
+        let triplets = free_hessian(&self.shell, &self.x, &free, |da, fb, h| {
+            if is_right_x[da] {
+                dforce_dx[fb] += h;
             }
-        }
+        });
         let h = SparseColMat::<usize, f64>::try_new_from_triplets(nf, nf, &triplets)
             .map_err(|e| ShellError::Linear(format!("Hessian assembly: {e:?}")))?;
         let lu = h

@@ -11,14 +11,14 @@ use sim_periodic::coarse::{Coarse, Strain};
 use sim_periodic::database::{DatabaseSettings, generate, relax_reference, uniform_axis};
 use sim_periodic::patterns::{Pattern, RelaxSettings, relax};
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel, solve_equilibrium};
-use sim_periodic::tile::Tile;
+use yarn_pattern::tile::Tile;
 
 fn stockinette() -> Tile {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../tests/data/patterns/stockinette.pyp"
     );
-    sim_periodic::pyp::read_pyp(path)
+    yarn_pattern::pyp::read_pyp(path)
         .expect("the real tile loads")
         .tile
 }

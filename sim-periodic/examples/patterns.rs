@@ -8,8 +8,8 @@
 
 use sim_periodic::patterns::{Pattern, RelaxSettings, min_clearance, relax};
 use sim_periodic::periodic::YarnModel;
-use sim_periodic::pyp::write_pyp;
 use std::path::PathBuf;
+use yarn_pattern::pyp::write_pyp;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -36,7 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let c0 = min_clearance(&guess, &model)?.map_or(f64::NAN, |c| c.distance / (2.0 * radius));
         let (tile, report) = relax(&guess, &model, &RelaxSettings::default())?;
         let c1 = min_clearance(&tile, &model)?.map_or(f64::NAN, |c| c.distance / (2.0 * radius));
-        let length = |t: &sim_periodic::tile::Tile| t.rest_lengths.iter().sum::<f64>();
+        let length = |t: &yarn_pattern::tile::Tile| t.rest_lengths.iter().sum::<f64>();
         println!(
             "{:<10} {:>4}  {:>8.3}  {:>10.3}  {:<16} {:>7.3}  {:.3}  ({:>8.4}, {:>8.4})  {:?}",
             pattern.name(),
@@ -60,7 +60,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         env!("CARGO_MANIFEST_DIR"),
         "/../tests/data/patterns/stockinette.pyp"
     );
-    if let Ok(read) = sim_periodic::pyp::read_pyp(real) {
+    if let Ok(read) = yarn_pattern::pyp::read_pyp(real) {
         let tile = read.tile;
         let model = YarnModel::default_for_radius(tile.radius);
         let c =

@@ -15,12 +15,13 @@
 use anyhow::{Context, anyhow};
 use nalgebra::Vector3;
 use rayon::prelude::*;
+use solver::StepError;
 
 use crate::coarse::{Coarse, Strain};
-use crate::madypg::Database;
 use crate::periodic::{EquilibriumSettings, YarnModel, solve_equilibrium};
 use crate::pullback::pullback;
-use crate::tile::Tile;
+use yarn_pattern::madypg::Database;
+use yarn_pattern::tile::Tile;
 
 /// Material displacement rows `(Δx, Δy, Δz, Δθ)` (m, rad) of the equilibrium `dofs` of
 /// `tile` under the bent `coarse` map ([`pullback`]), in single precision.
@@ -64,30 +65,41 @@ struct Bend<'a> {
 
 impl Bend<'_> {
     /// Solves the tile bent by `to` (1/m), continuing from curvature `from` with equilibrium
-    /// `dofs`; halves the step up to `depth` times. Returns the DOFs and the number of solves.
+    /// `dofs`; a failed step is halved up to `depth` times ([`solver::bisect`], midpoints
+    /// `(from + to)/2`). Returns the DOFs and the number of solves (failed ones included).
     fn to(
         &self,
         (from, dofs): (f64, &[f64]),
         to: f64,
         depth: usize,
     ) -> anyhow::Result<(Vec<f64>, usize)> {
-        let coarse = Coarse::from_strain(&self.strain).bent(self.axis, to);
-        match solve_equilibrium(self.tile, self.model, coarse, Some(dofs), self.settings) {
-            Ok(eq) => Ok((eq.dofs, 1)),
-            Err(e) if depth == 0 => Err(e).with_context(|| {
-                let s = &self.strain;
-                format!(
-                    "bending the tile along axis {} to κ = {to} 1/m at (sx, sa, sy) = ({}, {}, {})",
-                    self.axis, s.sx, s.sa, s.sy
-                )
-            }),
-            Err(_) => {
-                let mid = 0.5 * (from + to);
-                let (half, a) = self.to((from, dofs), mid, depth - 1)?;
-                let (full, b) = self.to((mid, &half), to, depth - 1)?;
-                Ok((full, a + b + 1))
-            }
-        }
+        let mut last: Option<Vec<f64>> = None;
+        let report = solver::bisect(
+            (from, to),
+            depth,
+            |&(a, b)| {
+                let mid = 0.5 * (a + b);
+                ((a, mid), (mid, b))
+            },
+            |&(_, k), _| {
+                let coarse = Coarse::from_strain(&self.strain).bent(self.axis, k);
+                let warm = last.as_deref().unwrap_or(dofs);
+                let eq =
+                    solve_equilibrium(self.tile, self.model, coarse, Some(warm), self.settings)
+                        .map_err(StepError::Halve)?;
+                last = Some(eq.dofs);
+                Ok(())
+            },
+        )
+        .map_err(|e| {
+            let s = &self.strain;
+            anyhow::Error::new(e.source).context(format!(
+                "bending the tile along axis {} to κ = {} 1/m at (sx, sa, sy) = ({}, {}, {})",
+                self.axis, e.failed.1, s.sx, s.sa, s.sy
+            ))
+        })?;
+        let dofs = last.expect("a successful continuation solved at least one step");
+        Ok((dofs, report.steps + report.halvings))
     }
 }
 

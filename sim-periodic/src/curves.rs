@@ -11,16 +11,17 @@
 //! since `∂Ψ/∂c = −vᵀPv`. The curve records `{s, c, σ_s = uᵀPu}` (σ in N/m).
 //!
 //! The paper searches `c` with the derivative-free COBYLA; here `σ_c` is exact at every
-//! equilibrium (gathered stress), so a safeguarded secant root-find (Illinois-type regula
-//! falsi once the root is bracketed) converges in a handful of warm-started solves. Points are
+//! equilibrium (gathered stress), so a safeguarded secant root-find ([`solver::secant`]:
+//! Illinois-type regula falsi once the root is bracketed) converges in a handful of warm-started solves. Points are
 //! solved in order of `s`, each warm-started from the previous one.
 
 use crate::coarse::Coarse;
 use crate::periodic::{
     Equilibrium, EquilibriumSettings, PeriodicError, YarnModel, solve_equilibrium,
 };
-use crate::tile::Tile;
 use nalgebra::Vector2;
+use solver::{SecantError, SecantEval, SecantSettings, StepError, secant};
+use yarn_pattern::tile::Tile;
 
 /// Named fabric directions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -192,6 +193,11 @@ pub fn uniaxial_curve(
     Ok(out)
 }
 
+/// The compression at which `σ_c` vanishes for stretch `s`: [`solver::secant`] from `guess`
+/// (second point 0.01 away, steps of at most 0.2 clipped to `c ≤ 0.95`, a trial compression
+/// without a reachable equilibrium — a jammed state where Newton stalls against the collision
+/// filter — retried up to 4 times closer to the last good one), every evaluation an
+/// equilibrium solve warm-started from the last one.
 #[allow(clippy::too_many_arguments)]
 fn root_find(
     tile: &Tile,
@@ -207,97 +213,66 @@ fn root_find(
     let mut iterations = 0;
     let mut last_dofs: Option<Vec<f64>> = warm.map(<[f64]>::to_vec);
     // Evaluates σ_c at compression c (warm-started from the last solve).
-    let mut eval =
-        |c: f64, last_dofs: &mut Option<Vec<f64>>| -> Result<(f64, f64, Equilibrium), CurveError> {
-            let coarse = Coarse::uniaxial(s, c, angle);
-            let eq = solve_equilibrium(
-                tile,
-                model,
-                coarse,
-                last_dofs.as_deref(),
-                &settings.equilibrium,
-            )
-            .map_err(|source| CurveError::Solve {
+    let eval = |c: f64| -> Result<SecantEval<(f64, Equilibrium)>, StepError<CurveError>> {
+        let coarse = Coarse::uniaxial(s, c, angle);
+        let eq = solve_equilibrium(
+            tile,
+            model,
+            coarse,
+            last_dofs.as_deref(),
+            &settings.equilibrium,
+        )
+        .map_err(|source| {
+            StepError::Halve(CurveError::Solve {
                 direction: name,
                 s,
                 c,
                 source,
-            })?;
-            solves += 1;
-            iterations += eq.iterations;
-            *last_dofs = Some(eq.dofs.clone());
-            let (ss, sc) = directional_stress(&eq, angle);
-            Ok((ss, sc, eq))
-        };
-    let converged =
-        |ss: f64, sc: f64| sc.abs() <= settings.stress_abs_tol + settings.stress_rel_tol * ss.abs();
-    let mut c0 = guess;
-    let mut f0 = eval(guess, &mut last_dofs)?.1;
-    // Second point: a small step of c (the secant then finds the sign of dσ_c/dc itself).
-    let mut c1 = c0 + if f0 > 0.0 { 0.01 } else { -0.01 };
-    let (mut ss1, mut f1, mut eq1) = eval(c1, &mut last_dofs)?;
-    let mut bracket = f0.signum() != f1.signum();
-    let mut side = 0i32; // Illinois bookkeeping
-    for _ in 0..settings.max_solves {
-        if converged(ss1, f1) {
-            let point = CurvePoint {
+            })
+        })?;
+        solves += 1;
+        iterations += eq.iterations;
+        last_dofs = Some(eq.dofs.clone());
+        let (ss, sc) = directional_stress(&eq, angle);
+        Ok(SecantEval {
+            f: sc,
+            f_tol: settings.stress_abs_tol + settings.stress_rel_tol * ss.abs(),
+            data: (ss, eq),
+        })
+    };
+    let secant_settings = SecantSettings {
+        first_step: 0.01,
+        max_step: 0.2,
+        lower: f64::NEG_INFINITY,
+        upper: 0.95,
+        max_iterations: settings.max_solves,
+        max_retries: 4,
+    };
+    let root = match secant(guess, &secant_settings, eval) {
+        Ok(root) => root,
+        Err(SecantError::Eval { source, .. }) => return Err(source),
+        Err(SecantError::NotConverged(r) | SecantError::NonFinite(r)) => {
+            return Err(CurveError::RootFind {
+                direction: name,
                 s,
-                c: c1,
-                sigma_s: ss1,
-                sigma_c: f1,
-                density: eq1.density,
+                c: r.x,
+                best: r.best_abs_f(),
                 solves,
-                iterations,
-            };
-            return Ok((point, eq1.dofs));
+            });
         }
-        let denom = f1 - f0;
-        let mut c2 = if denom != 0.0 {
-            c1 - f1 * (c1 - c0) / denom
-        } else {
-            c1 + 0.01
-        };
-        // Safeguards: stay inside the admissible range and do not jump far.
-        let max_jump = 0.2;
-        c2 = c2.clamp(c1 - max_jump, c1 + max_jump).min(0.95);
-        if !c2.is_finite() {
-            break;
-        }
-        // A trial compression without a reachable equilibrium (a jammed state where Newton
-        // stalls against the collision filter) is retried closer to the last good one.
-        let mut trial = eval(c2, &mut last_dofs);
-        for _ in 0..4 {
-            if !matches!(trial, Err(CurveError::Solve { .. })) {
-                break;
-            }
-            c2 = 0.5 * (c1 + c2);
-            trial = eval(c2, &mut last_dofs);
-        }
-        let (ss2, f2, eq2) = trial?;
-        if bracket {
-            // Keep the bracket [c0, c1] around the root (Illinois modification of regula falsi).
-            if f2.signum() == f1.signum() {
-                if side == 1 {
-                    f0 *= 0.5;
-                }
-                side = 1;
-            } else {
-                (c0, f0) = (c1, f1);
-                side = -1;
-            }
-        } else {
-            bracket = f2.signum() != f1.signum();
-            (c0, f0) = (c1, f1);
-        }
-        (c1, ss1, f1, eq1) = (c2, ss2, f2, eq2);
-    }
-    Err(CurveError::RootFind {
-        direction: name,
+        Err(SecantError::InvalidInput(msg)) => return Err(CurveError::Invalid(msg)),
+    };
+    let (sigma_s, eq) = root.data;
+    let point = CurvePoint {
         s,
-        c: c1,
-        best: f1.abs().min(f0.abs()),
+        c: root.x,
+        sigma_s,
+        sigma_c: root.f,
+        density: eq.density,
         solves,
-    })
+        iterations,
+    };
+    Ok((point, eq.dofs))
 }
 
 /// One point of a bending curve.

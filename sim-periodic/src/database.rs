@@ -40,16 +40,16 @@ use std::time::Instant;
 
 use nalgebra::Matrix2;
 use rayon::prelude::*;
-use solver::StepError;
+use solver::{DenseEval, DenseNewtonError, DenseNewtonSettings, Probe, StepError, newton_dense};
 
 use crate::coarse::{Coarse, Strain};
-use crate::madypg::{AXIS_NAMES, Database, DatabaseError};
 use crate::patterns::{PatternError, RelaxReport, RelaxSettings, relax};
 use crate::periodic::{
     Equilibrium, EquilibriumSettings, PeriodicError, PeriodicTile, YarnModel, initial_dofs,
     solve_equilibrium,
 };
-use crate::tile::Tile;
+use yarn_pattern::madypg::{AXIS_NAMES, Database, DatabaseError};
+use yarn_pattern::tile::Tile;
 
 /// Settings of a database generation.
 #[derive(Clone, Debug)]
@@ -87,7 +87,7 @@ impl Default for DatabaseSettings {
 /// Errors of database generation.
 #[derive(Debug, thiserror::Error)]
 pub enum GenerationError {
-    /// An axis is invalid (see [`crate::madypg`]).
+    /// An axis is invalid (see [`yarn_pattern::madypg`]).
     #[error(transparent)]
     Database(#[from] DatabaseError),
     /// A grid point is not an admissible strain.
@@ -189,7 +189,7 @@ pub struct PeriodRelaxation {
 }
 
 /// Finds the tile period at which the relaxed tile carries no normal coarse stress
-/// (`P₁₁ = P₂₂ = 0` under `F₂ = diag(a, b)`, Newton on `(a, b)` with a finite-difference
+/// (`P₁₁ = P₂₂ = 0` under `F₂ = diag(a, b)`, [`solver::newton_dense`] on `(a, b)` with a finite-difference
 /// Jacobian of the gathered stress, each stress an equilibrium solve), then re-bases the tile
 /// on that state ([`crate::patterns::rebase_stretched`]) and settles it with
 /// [`relax_reference`]. A file tile relaxed with a yarn model other than its own is otherwise
@@ -236,8 +236,16 @@ fn relax_period_once(
 ) -> Result<(Tile, PeriodRelaxation), GenerationError> {
     let (tile, _) = relax_reference(tile, model, settings)?;
     let mut solves = 0;
+    // Every residual is an equilibrium solve, warm-started from the last iterate's (so the
+    // finite-difference probes start from the state they perturb).
     let mut warm: Option<Vec<f64>> = None;
-    let mut stress_at = |ab: [f64; 2], warm: &mut Option<Vec<f64>>| {
+    let newton = DenseNewtonSettings {
+        residual_tol: tol,
+        max_iterations: 20,
+        fd_step: 1e-4,
+        max_step: 0.05, // at most 5 % per step
+    };
+    let root = newton_dense([1.0, 1.0], &newton, |ab, probe| {
         let coarse = Coarse::in_plane(Matrix2::new(ab[0], 0.0, 0.0, ab[1]));
         solves += 1;
         let eq = solve_equilibrium(&tile, model, coarse, warm.as_deref(), settings).map_err(
@@ -247,54 +255,35 @@ fn relax_period_once(
                 source,
             },
         )?;
-        *warm = Some(eq.dofs.clone());
-        Ok::<_, GenerationError>(eq)
-    };
-    let mut ab = [1.0, 1.0];
-    let h = 1e-4;
-    for _ in 0..20 {
-        let eq = stress_at(ab, &mut warm)?;
-        let r = [eq.stress[(0, 0)], eq.stress[(1, 1)]];
-        if r[0].abs().max(r[1].abs()) <= tol {
-            let relaxed = crate::patterns::rebase_stretched(&tile, ab, &eq.dofs)
-                .map_err(GenerationError::Relax)?;
-            let (relaxed, report) = relax_reference(&relaxed, model, settings)?;
-            return Ok((
-                relaxed,
-                PeriodRelaxation {
-                    stretch: ab,
-                    stress: report.stress,
-                    solves: solves + report.iterations.len(),
-                },
-            ));
+        if probe == Probe::Point {
+            warm = Some(eq.dofs.clone());
         }
-        let base = eq.dofs.clone();
-        let mut jac = Matrix2::zeros();
-        for k in 0..2 {
-            let mut probe = ab;
-            probe[k] += h;
-            let mut start = Some(base.clone());
-            let e = stress_at(probe, &mut start)?;
-            jac[(0, k)] = (e.stress[(0, 0)] - r[0]) / h;
-            jac[(1, k)] = (e.stress[(1, 1)] - r[1]) / h;
-        }
-        let step = jac
-            .try_inverse()
-            .map(|inv| -(inv * nalgebra::Vector2::new(r[0], r[1])))
-            .filter(|d| d.iter().all(|v| v.is_finite()))
-            .ok_or_else(|| {
-                GenerationError::Relax(PatternError::Invalid(
-                    "the period stiffness is singular".into(),
-                ))
-            })?;
-        // At most 5 % per step.
-        let scale = (0.05 / step.amax()).min(1.0);
-        ab = [ab[0] + scale * step[0], ab[1] + scale * step[1]];
-        warm = Some(base);
-    }
-    Err(GenerationError::Relax(PatternError::Invalid(format!(
-        "the period did not relax to |P| <= {tol} N/m in 20 Newton steps"
-    ))))
+        Ok(DenseEval {
+            residual: [eq.stress[(0, 0)], eq.stress[(1, 1)]],
+            jacobian: None,
+            data: eq,
+        })
+    })
+    .map_err(|e| match e {
+        DenseNewtonError::Eval { source, .. } => source,
+        DenseNewtonError::Singular(_) => GenerationError::Relax(PatternError::Invalid(
+            "the period stiffness is singular".into(),
+        )),
+        e => GenerationError::Relax(PatternError::Invalid(format!(
+            "the period did not relax to |P| <= {tol} N/m: {e}"
+        ))),
+    })?;
+    let relaxed = crate::patterns::rebase_stretched(&tile, root.x, &root.data.dofs)
+        .map_err(GenerationError::Relax)?;
+    let (relaxed, report) = relax_reference(&relaxed, model, settings)?;
+    Ok((
+        relaxed,
+        PeriodRelaxation {
+            stretch: root.x,
+            stress: report.stress,
+            solves: solves + report.iterations.len(),
+        },
+    ))
 }
 
 /// The material-space displacement rows `(Δx, Δy, Δz, Δθ)` of the equilibrium DOFs `dofs`
@@ -352,53 +341,15 @@ pub fn generate(
     // returns the equilibrium its children continue from (the parent's when unsolved).
     let solve = |index: [usize; 3], from: (Strain, &[f64])| -> Result<Parent, GenerationError> {
         let strain = strain_at(index);
-        let t = Instant::now();
         let (record, parent) = match store.load(index, strain, tile)? {
             Some((record, dofs)) => (record, (strain, dofs)),
-            None => match continue_to(tile, model, from, strain, settings) {
-                Ok((eq, iterations, substeps)) => {
-                    if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
-                        return Err(GenerationError::NonFinite(strain));
-                    }
-                    let record = SampleRecord {
-                        index,
-                        strain,
-                        density: eq.density,
-                        stress: eq.stress,
-                        iterations,
-                        substeps,
-                        seconds: t.elapsed().as_secs_f64(),
-                        resumed: false,
-                        solved: true,
-                    };
-                    store.save(&record, &eq.dofs)?;
-                    (record, (strain, eq.dofs))
+            None => {
+                let (record, parent) = solve_or_fill(tile, model, index, strain, from, settings)?;
+                if record.solved {
+                    store.save(&record, &parent.1)?;
                 }
-                Err(GenerationError::Solve { .. }) if settings.fill_unsolved => {
-                    let (density, stress) = state_under(tile, model, strain, from.1, settings)
-                        .map_err(|source| GenerationError::Solve {
-                            strain,
-                            bisections: 0,
-                            source,
-                        })?;
-                    if !density.is_finite() || !stress.iter().all(|v| v.is_finite()) {
-                        return Err(GenerationError::NonFinite(strain));
-                    }
-                    let record = SampleRecord {
-                        index,
-                        strain,
-                        density,
-                        stress,
-                        iterations: 0,
-                        substeps: 0,
-                        seconds: t.elapsed().as_secs_f64(),
-                        resumed: false,
-                        solved: false,
-                    };
-                    (record, (from.0, from.1.to_vec()))
-                }
-                Err(e) => return Err(e),
-            },
+                (record, parent)
+            }
         };
         progress(&record);
         results.lock().expect("results lock")[flat(index)] = Some((record, parent.clone()));
@@ -440,9 +391,92 @@ pub fn generate(
         line(1, seed, parent_at(seed))
     })?;
 
+    let results = results.into_inner().expect("results lock");
+    let (database, samples) = database_from(tile, axes, results)?;
+    Ok(Generated {
+        database,
+        samples,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// An equilibrium children continue from: its strain and DOFs.
+type Parent = (Strain, Vec<f64>);
+
+/// A finished sample and the equilibrium behind its row (its own, or its parent's when
+/// unsolved).
+type Solved = (SampleRecord, Parent);
+
+/// Solves the sample `index` (strain `strain_at(index)`) for [`generate`], continuing from
+/// `from` ([`continue_to`]); an unsolved sample with [`DatabaseSettings::fill_unsolved`] gets
+/// the state of `from`'s DOFs under its strain. Returns its record and the equilibrium its
+/// children continue from (`from` itself when unsolved).
+fn solve_or_fill(
+    tile: &Tile,
+    model: &YarnModel,
+    index: [usize; 3],
+    strain: Strain,
+    from: (Strain, &[f64]),
+    settings: &DatabaseSettings,
+) -> Result<Solved, GenerationError> {
+    let t = Instant::now();
+    match continue_to(tile, model, from, strain, settings) {
+        Ok((eq, iterations, substeps)) => {
+            if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
+                return Err(GenerationError::NonFinite(strain));
+            }
+            let record = SampleRecord {
+                index,
+                strain,
+                density: eq.density,
+                stress: eq.stress,
+                iterations,
+                substeps,
+                seconds: t.elapsed().as_secs_f64(),
+                resumed: false,
+                solved: true,
+            };
+            Ok((record, (strain, eq.dofs)))
+        }
+        Err(GenerationError::Solve { .. }) if settings.fill_unsolved => {
+            let (density, stress) =
+                state_under(tile, model, strain, from.1, settings).map_err(|source| {
+                    GenerationError::Solve {
+                        strain,
+                        bisections: 0,
+                        source,
+                    }
+                })?;
+            if !density.is_finite() || !stress.iter().all(|v| v.is_finite()) {
+                return Err(GenerationError::NonFinite(strain));
+            }
+            let record = SampleRecord {
+                index,
+                strain,
+                density,
+                stress,
+                iterations: 0,
+                substeps: 0,
+                seconds: t.elapsed().as_secs_f64(),
+                resumed: false,
+                solved: false,
+            };
+            Ok((record, (from.0, from.1.to_vec())))
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// The database of [`generate`]'s finished samples (in flat sample order): the material
+/// displacement rows of every sample's equilibrium, and the sample records.
+fn database_from(
+    tile: &Tile,
+    axes: [Vec<f64>; 3],
+    results: Vec<Option<Solved>>,
+) -> Result<(Database, Vec<SampleRecord>), GenerationError> {
+    let dims = [axes[0].len(), axes[1].len(), axes[2].len()];
     let n = tile.n_vertices();
     let mut data = vec![[0f32; 4]; n * dims.iter().product::<usize>()];
-    let results = results.into_inner().expect("results lock");
     let mut samples = Vec::with_capacity(results.len());
     let database_index =
         |v: usize, [i, j, k]: [usize; 3]| i + dims[0] * (j + dims[1] * (k + dims[2] * v));
@@ -470,19 +504,8 @@ pub fn generate(
         data,
     };
     database.validate()?;
-    Ok(Generated {
-        database,
-        samples,
-        seconds: start.elapsed().as_secs_f64(),
-    })
+    Ok((database, samples))
 }
-
-/// An equilibrium children continue from: its strain and DOFs.
-type Parent = (Strain, Vec<f64>);
-
-/// A finished sample and the equilibrium behind its row (its own, or its parent's when
-/// unsolved).
-type Solved = (SampleRecord, Parent);
 
 /// Ψ and the gathered stress of the DOFs `dofs` under `strain` (not an equilibrium there).
 fn state_under(

@@ -9,11 +9,12 @@
 //!   (seed 004), §3 (displacement database ΔQ(sx, sa, sy), no-sliding constraint Eq. 3,
 //!   material-space pullback Eq. 18, bending from I and II in Appendix A).
 //!
-//! The yarn energies come from the `rod` crate; Newton and sparse assembly from `solver`.
+//! The yarn energies come from the `rod` crate; Newton and sparse assembly from `solver`; the
+//! tile, its `.pyp` file format and the database layout from the leaf crate `yarn-pattern`
+//! (`yarn_pattern::{tile, pyp, madypg}`).
 //!
 //! | module | contents |
 //! |---|---|
-//! | [`tile`], [`pyp`], [`madypg`] | the tile, `.pyp` and database layout, from the leaf crate `yarn-pattern` |
 //! | [`coarse`] | coarse deformation: in-plane from seed 004 strains or uniaxial (s, c), optional single curvature |
 //! | [`config`] | TOML configuration of the `sim-periodic` command line |
 //! | [`curves`] | uniaxial curves {s, c, σ_s} along weft / bias / warp with a root-find for zero orthogonal stress; bending curves {κ, Ψ, dΨ/dκ} |
@@ -35,6 +36,3 @@ pub mod database;
 pub mod patterns;
 pub mod periodic;
 pub mod pullback;
-/// The pattern data live in the leaf crate `yarn-pattern` (shared with `deform-runtime`);
-/// they are re-exported here under their historical paths.
-pub use yarn_pattern::{madypg, pyp, tile};

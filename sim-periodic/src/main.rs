@@ -23,7 +23,7 @@ use serde_json::json;
 use sim_periodic::config::Config;
 use sim_periodic::curves::{CurveSettings, uniaxial_curve};
 use sim_periodic::database::{DatabaseSettings, generate, relax_period, relax_reference};
-use sim_periodic::pyp::{read_pyp, write_pyp};
+use yarn_pattern::pyp::{read_pyp, write_pyp};
 
 #[derive(Parser)]
 #[command(
@@ -66,7 +66,7 @@ fn main() -> Result<()> {
 
 struct Setup {
     config: Config,
-    tile: sim_periodic::tile::Tile,
+    tile: yarn_pattern::tile::Tile,
     model: sim_periodic::periodic::YarnModel,
 }
 
@@ -107,7 +107,7 @@ fn bar(len: u64, msg: &'static str) -> ProgressBar {
 fn reference(
     s: &Setup,
     settings: &sim_periodic::periodic::EquilibriumSettings,
-) -> Result<sim_periodic::tile::Tile> {
+) -> Result<yarn_pattern::tile::Tile> {
     if s.config.relax_period {
         let (tile, period) = relax_period(&s.tile, &s.model, settings, 1e-6)?;
         eprintln!(

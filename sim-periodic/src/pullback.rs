@@ -20,7 +20,7 @@ use nalgebra::Vector3;
 
 use crate::coarse::Coarse;
 use crate::periodic::PeriodicError;
-use crate::tile::Tile;
+use yarn_pattern::tile::Tile;
 
 /// Inverse of the roll of [`Coarse::map`] with curvature `kappa` (1/m, ≠ 0) along `axis`
 /// (0 = x, 1 = y): the point `(a, b, z)` (m) with `φ(a, b, z) = x` (valid for

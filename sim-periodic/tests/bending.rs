@@ -5,7 +5,7 @@ use sim_periodic::coarse::{Coarse, Strain};
 use sim_periodic::curves::bending_curve;
 use sim_periodic::database::relax_reference;
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel, solve_equilibrium};
-use sim_periodic::tile::Tile;
+use yarn_pattern::tile::Tile;
 
 mod common;
 

@@ -6,7 +6,7 @@ use sim_periodic::database::{
     DatabaseSettings, GenerationError, generate, relax_period, relax_reference,
 };
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel, solve_equilibrium};
-use sim_periodic::tile::Tile;
+use yarn_pattern::tile::Tile;
 
 mod common;
 use common::stockinette;

@@ -4,8 +4,8 @@
 
 use sim_periodic::coarse::{Coarse, Strain};
 use sim_periodic::periodic::{EquilibriumSettings, PeriodicTile, YarnModel, solve_equilibrium};
-use sim_periodic::tile::Tile;
 use solver::Assembler;
+use yarn_pattern::tile::Tile;
 
 mod common;
 use common::stockinette;
@@ -104,7 +104,7 @@ fn repeated(tile: &Tile, k: i32) -> Tile {
             }
             for e in &tile.edges {
                 let (ti, tj) = (i + e.shift[0], j + e.shift[1]);
-                edges.push(sim_periodic::tile::Edge {
+                edges.push(yarn_pattern::tile::Edge {
                     v0: copy(e.v0, i, j),
                     v1: copy(e.v1, ti.rem_euclid(k), tj.rem_euclid(k)),
                     shift: [ti.div_euclid(k), tj.div_euclid(k)],

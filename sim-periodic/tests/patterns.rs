@@ -12,9 +12,9 @@ use sim_periodic::patterns::{
 use sim_periodic::periodic::{
     EquilibriumSettings, PeriodicTile, YarnModel, initial_dofs, solve_equilibrium,
 };
-use sim_periodic::pyp::{parse_pyp, read_pyp, to_pyp_string, write_pyp};
-use sim_periodic::tile::Tile;
 use solver::Assembler;
+use yarn_pattern::pyp::{parse_pyp, read_pyp, to_pyp_string, write_pyp};
+use yarn_pattern::tile::Tile;
 
 const R: f64 = 1e-3;
 

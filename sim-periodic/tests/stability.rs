@@ -5,7 +5,7 @@
 use sim_periodic::coarse::Strain;
 use sim_periodic::database::{DatabaseSettings, continue_to, relax_reference};
 use sim_periodic::periodic::{Equilibrium, EquilibriumSettings, YarnModel, initial_dofs};
-use sim_periodic::tile::Tile;
+use yarn_pattern::tile::Tile;
 
 mod common;
 use common::stockinette;

@@ -10,9 +10,11 @@
 //! | [`pcg`] | [`Pcg`]: preconditioned conjugate gradients (Jacobi or IC(0)) on the assembled lower-triangle Hessian, deterministic parallel matrix–vector products |
 //! | [`terms`] | [`Terms`]: the one term container (a [`Problem`]): heterogeneous terms ([`LocalEnergy`], [`RodTerm`] for any `rod::Stencil<N>`) with DOF indices and optional affine offsets |
 //! | [`constrained`] | [`minimize_constrained`] / [`ConstrainedNewtonSolver`]: Newton under linear equality constraints `Cx = d` via the KKT system and sparse LU |
-//! | [`roots`] | [`find_root`]: safeguarded 1-D root finding in a sign-change bracket (Newton with a derivative, bisection without) |
+//! | [`roots`] | [`find_root`]: safeguarded 1-D root finding in a sign-change bracket (Newton with a derivative, bisection without); [`secant`]: from one start point without a bracket (secant, Illinois regula falsi once bracketed, clipped steps, retries of failed evaluations) |
+//! | [`dense_newton`] | [`newton_dense`]: Newton for a few equations in as many unknowns (analytic or forward-difference Jacobian, damped steps, loud failure) |
 //! | [`lm`] | [`bounded_lm`]: bounded Levenberg–Marquardt for small least-squares fits (scaled parameters, active set, extra constraints) |
 //! | [`continuation`] | [`march`] (load stepping with step halving and growth) and [`bisect`] (recursive halving of a segment) |
+//! | [`validation`] | problems with known answers: [`validation::cantilever`] (a clamped rod under a tip load vs beam theory and the elastica) |
 //!
 //! Design rules:
 //!
@@ -71,6 +73,7 @@
 pub mod assembly;
 pub mod constrained;
 pub mod continuation;
+pub mod dense_newton;
 mod error;
 mod linalg;
 pub mod lm;
@@ -79,6 +82,7 @@ mod pattern;
 pub mod pcg;
 pub mod roots;
 pub mod terms;
+pub mod validation;
 
 pub use assembly::{
     Assembled, Assembler, Problem, eval_rod_stencil, eval_rod_stencil_energy_offset,
@@ -89,11 +93,18 @@ pub use continuation::{
     Attempt, ContinuationError, ContinuationReport, MarchError, MarchSettings, StepError, bisect,
     march,
 };
+pub use dense_newton::{
+    DenseEval, DenseNewtonError, DenseNewtonReport, DenseNewtonSettings, DenseRoot, Probe,
+    newton_dense,
+};
 pub use error::SolveError;
 pub use lm::{LmBounds, LmError, LmEval, LmOutcome, LmSettings, LmTermination, bounded_lm};
 pub use newton::{
     LinearSolver, NewtonReport, NewtonSettings, NewtonSolver, NewtonTimings, Termination, minimize,
 };
 pub use pcg::{Pcg, PcgFailure, PcgReport, PcgSettings, Preconditioner};
-pub use roots::{Bracket, Root, RootError, RootEval, RootReport, RootSettings, find_root};
+pub use roots::{
+    Bracket, Root, RootError, RootEval, RootReport, RootSettings, SecantError, SecantEval,
+    SecantReport, SecantRoot, SecantSettings, find_root, secant,
+};
 pub use terms::{CloneTerm, Concat, LocalEnergy, LocalVector, MAX_TERM_DOFS, RodTerm, Terms};

@@ -26,6 +26,13 @@
 //! **Failure.** Not converging within `max_iterations` evaluations is
 //! [`RootError::NotConverged`] with a [`RootReport`]; a bracket without a sign change,
 //! non-finite input, a NaN value of `f`, or an error of the user function are `Err`s too.
+//!
+//! Without a bracket, [`secant()`] starts from one point (secant steps, Illinois-safeguarded
+//! regula falsi once a sign change is found).
+
+mod secant;
+
+pub use secant::{SecantError, SecantEval, SecantReport, SecantRoot, SecantSettings, secant};
 
 /// One evaluation of the function: its value and, optionally, its derivative.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -2,7 +2,7 @@
 //! matches Euler–Bernoulli `PL³/(3EI)` within 1 % at ≥ 50 segments for small loads, and the
 //! elastica for large ones.
 
-use bench::studies::cantilever::{Beam, elastica_tip, sweep};
+use solver::validation::cantilever::{Beam, elastica_tip, sweep};
 
 #[test]
 fn cantilever_matches_euler_bernoulli_within_one_percent_at_small_loads() {

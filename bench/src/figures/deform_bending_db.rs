@@ -16,8 +16,8 @@ use anyhow::{Context, anyhow};
 use deform_runtime::Real;
 use deform_runtime::bending::BendingDatabase;
 use sim_periodic::bending_database::{bending_databases, restrict_to_axes};
-use sim_periodic::madypg::Database;
-use sim_periodic::tile::Tile;
+use yarn_pattern::madypg::Database;
+use yarn_pattern::tile::Tile;
 
 use super::deform_real_db as real;
 use crate::FigureContext;
@@ -176,7 +176,7 @@ mod tests {
     #[test]
     fn subsampling_a_nested_grid_keeps_the_samples() {
         let path = format!("{}/../{}", env!("CARGO_MANIFEST_DIR"), real::PATTERN);
-        let tile = sim_periodic::pyp::read_pyp(&path).unwrap().tile;
+        let tile = yarn_pattern::pyp::read_pyp(&path).unwrap().tile;
         let f = deform_runtime::synthetic::multilinear(tile.radius);
         let dense = deform_runtime::synthetic::database(&tile, real::axes(5), &f);
         let coarse = real::axes(3);

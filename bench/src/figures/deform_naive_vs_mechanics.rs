@@ -34,7 +34,7 @@ fn yarn_length<T: Real>(d: &Deformer<T>, rest: bool) -> f64 {
         if rest {
             e.material[k]
         } else {
-            [o.x[k].to_f64(), o.y[k].to_f64(), o.z[k].to_f64()]
+            [o.x[k].as_(), o.y[k].as_(), o.z[k].as_()]
         }
     };
     let dist = |a: [f64; 3], b: [f64; 3]| {
@@ -61,7 +61,7 @@ fn top_view<T: Real>(d: &Deformer<T>, title: &str) -> LineChart {
     for c in 0..e.n_curves() {
         let (s, t) = (e.curve_offsets[c] as usize, e.curve_offsets[c + 1] as usize);
         let mut pts: Vec<(f64, f64)> = (s..t)
-            .map(|k| (1e3 * o.x[k].to_f64(), 1e3 * o.y[k].to_f64()))
+            .map(|k| (1e3 * o.x[k].as_(), 1e3 * o.y[k].as_()))
             .collect();
         if e.closed[c] && t > s {
             pts.push(pts[0]);

@@ -18,8 +18,8 @@ use sim_periodic::database::{
     DatabaseSettings, Generated, generate, relax_reference, uniform_axis,
 };
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel};
-use sim_periodic::pyp::read_pyp;
-use sim_periodic::tile::Tile;
+use yarn_pattern::pyp::read_pyp;
+use yarn_pattern::tile::Tile;
 
 use crate::FigureContext;
 
@@ -189,9 +189,9 @@ pub fn position_error<A: Real, B: Real>(a: &YarnOutput<A>, b: &YarnOutput<B>, r:
     let n = a.x.len().min(b.x.len());
     let (mut sum, mut max) = (0.0f64, 0.0f64);
     for k in 0..n {
-        let d2 = (a.x[k].to_f64() - b.x[k].to_f64()).powi(2)
-            + (a.y[k].to_f64() - b.y[k].to_f64()).powi(2)
-            + (a.z[k].to_f64() - b.z[k].to_f64()).powi(2);
+        let d2 = (a.x[k].as_() - b.x[k].as_()).powi(2)
+            + (a.y[k].as_() - b.y[k].as_()).powi(2)
+            + (a.z[k].as_() - b.z[k].as_()).powi(2);
         sum += d2;
         max = max.max(d2);
     }
@@ -215,9 +215,9 @@ pub fn rest_error<T: Real>(d: &Deformer<T>, r: f64) -> f64 {
         .iter()
         .enumerate()
         .map(|(k, m)| {
-            (o.x[k].to_f64() - m[0]).powi(2)
-                + (o.y[k].to_f64() - m[1]).powi(2)
-                + (o.z[k].to_f64() - m[2]).powi(2)
+            (o.x[k].as_() - m[0]).powi(2)
+                + (o.y[k].as_() - m[1]).powi(2)
+                + (o.z[k].as_() - m[2]).powi(2)
         })
         .sum();
     (sum / n as f64).sqrt() / r

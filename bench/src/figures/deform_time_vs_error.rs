@@ -17,8 +17,8 @@ use deform_runtime::bending::BendingDatabase;
 use deform_runtime::obj::ObjMesh;
 use deform_runtime::pipeline::{SetupOptions, build};
 use deform_runtime::{DeformOptions, Deformer, FrameStats, Real, synthetic};
-use sim_periodic::madypg::Database;
-use sim_periodic::tile::Tile;
+use yarn_pattern::madypg::Database;
+use yarn_pattern::tile::Tile;
 
 use super::deform_bending_db::{KAPPA_MAX, bending, waved};
 use super::deform_real_db as real;

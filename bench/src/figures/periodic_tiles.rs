@@ -5,7 +5,7 @@ use nalgebra::Vector3;
 use sim_periodic::coarse::Coarse;
 use sim_periodic::curves::{CurveSettings, Direction};
 use sim_periodic::periodic::{YarnModel, solve_equilibrium};
-use sim_periodic::tile::Tile;
+use yarn_pattern::tile::Tile;
 
 use crate::plot::{LineChart, Series, save_side_by_side};
 use crate::studies::periodic::{curve, real_stockinette, stress_free};

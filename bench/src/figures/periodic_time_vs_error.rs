@@ -8,7 +8,7 @@ use rod::contact::Simpson;
 use sim_periodic::curves::{CurveSettings, Direction};
 use sim_periodic::patterns::Pattern;
 use sim_periodic::periodic::YarnModel;
-use sim_periodic::tile::Tile;
+use yarn_pattern::tile::Tile;
 
 use crate::plot::{LineChart, Series};
 use crate::studies::periodic::{curve, pattern_tile, real_stockinette, stress_free};

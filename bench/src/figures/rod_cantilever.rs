@@ -2,8 +2,8 @@
 //! with Euler–Bernoulli theory (small loads) and the elastica (large loads).
 
 use crate::plot::{LineChart, Series};
-use crate::studies::cantilever::{Beam, elastica_tip, sweep};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
+use solver::validation::cantilever::{Beam, elastica_tip, sweep};
 
 /// Registry entry.
 pub fn spec() -> FigureSpec {

@@ -2,9 +2,9 @@
 //! deflection against the segment count, log–log, with measured orders.
 
 use crate::plot::{LineChart, Series};
-use crate::studies::cantilever::{Beam, elastica_tip, sweep};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
 use rod::validation::{BendingModel, Helix, measured_order, relative_bending_error};
+use solver::validation::cantilever::{Beam, elastica_tip, sweep};
 use std::f64::consts::TAU;
 
 /// Registry entry.

@@ -6,7 +6,7 @@ use sim_periodic::curves::{CurvePoint, CurveSettings, Direction, uniaxial_curve}
 use sim_periodic::database::relax_period;
 use sim_periodic::patterns::{Pattern, RelaxSettings, relax};
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel};
-use sim_periodic::tile::Tile;
+use yarn_pattern::tile::Tile;
 
 /// The real stockinette tile shipped with the tests (MADYPG, see its licence).
 pub fn real_stockinette() -> anyhow::Result<Tile> {
@@ -14,7 +14,7 @@ pub fn real_stockinette() -> anyhow::Result<Tile> {
         env!("CARGO_MANIFEST_DIR"),
         "/../tests/data/patterns/stockinette.pyp"
     );
-    Ok(sim_periodic::pyp::read_pyp(path)
+    Ok(yarn_pattern::pyp::read_pyp(path)
         .with_context(|| format!("reading {path}"))?
         .tile)
 }

@@ -3,9 +3,9 @@
 
 use super::{PeriodicError, PeriodicTile, YarnModel};
 use crate::coarse::Coarse;
-use crate::tile::Tile;
 use nalgebra::Vector3;
 use rod::contact::closest_points;
+use yarn_pattern::tile::Tile;
 
 /// An unordered pair of edges in contact: edge `b` taken in the image shifted by `image`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]

@@ -47,7 +47,6 @@ pub use model::{PeriodicError, YarnModel};
 pub use solve::{Equilibrium, EquilibriumSettings, initial_dofs, solve_equilibrium};
 
 use crate::coarse::Coarse;
-use crate::tile::{Tile, Topology};
 use nalgebra::{Matrix3, Vector2, Vector3};
 use rod::contact::EdgeContact;
 use rod::geometry::Frame;
@@ -55,6 +54,7 @@ use rod::material_bending::MaterialBending;
 use rod::stretch::Segment;
 use rod::twist::Twist;
 use solver::{Problem, RodTerm, Terms};
+use yarn_pattern::tile::{Tile, Topology};
 
 /// One stencil point: vertex and the period shift of the copy used.
 type Point = (usize, [i32; 2]);

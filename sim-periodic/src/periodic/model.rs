@@ -1,9 +1,9 @@
 //! The yarn material model and the errors of periodic-tile problems.
 
-use crate::tile::TileError;
 use rod::contact::{BarrierPhase, Simpson};
 use rod::stretch::StretchLaw;
 use solver::SolveError;
+use yarn_pattern::tile::TileError;
 
 /// Yarn material parameters (SI). The defaults are illustrative values for a ~1 mm yarn, not
 /// fitted ones; paper 002 §7 fits them to fabric tests.

@@ -2,9 +2,9 @@
 
 use super::{ContactPair, PeriodicError, PeriodicTile, YarnModel};
 use crate::coarse::Coarse;
-use crate::tile::Tile;
 use nalgebra::Matrix2;
 use solver::{NewtonSettings, minimize_constrained};
+use yarn_pattern::tile::Tile;
 
 /// Initial DOFs of a tile: zero fluctuation, the tile's twist angles (`*Q`'s `t` column
 /// belongs to the edge starting at each vertex).

@@ -5,8 +5,8 @@
 
 use sim_periodic::coarse::Coarse;
 use sim_periodic::periodic::{PeriodicTile, YarnModel, initial_dofs};
-use sim_periodic::tile::Tile;
 use solver::Assembler;
+use yarn_pattern::tile::Tile;
 
 /// The real stockinette tile of the test data.
 pub fn stockinette() -> Tile {
@@ -14,7 +14,7 @@ pub fn stockinette() -> Tile {
         env!("CARGO_MANIFEST_DIR"),
         "/../tests/data/patterns/stockinette.pyp"
     );
-    sim_periodic::pyp::read_pyp(path)
+    yarn_pattern::pyp::read_pyp(path)
         .expect("the real tile loads")
         .tile
 }

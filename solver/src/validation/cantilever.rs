@@ -8,12 +8,12 @@
 //! length `h/2` (rest lengths `(0, h)`), which keeps the beam exactly `L` long. A vertical load
 //! `P` (N, pointing −y) acts on the tip: energy `P·y_tip`.
 
+use crate::{
+    Bracket, LocalEnergy, NewtonReport, NewtonSettings, NewtonSolver, RootError, RootEval,
+    RootSettings, SolveError, Terms, find_root,
+};
 use rod::bending::BinormalBending;
 use rod::stretch::{Segment, StretchLaw};
-use solver::{
-    Bracket, NewtonReport, NewtonSettings, NewtonSolver, Problem, RootError, RootEval,
-    RootSettings, SolveError, eval_rod_stencil, find_root,
-};
 use std::convert::Infallible;
 
 /// Beam parameters (SI).
@@ -50,16 +50,36 @@ impl Beam {
     }
 }
 
-enum Term {
-    Stretch(Segment),
-    Bend(BinormalBending),
-    Load(f64),
+/// The tip load `P` (N, downward) on the tip vertex `(x, y, z)`: `W = P·y` (a gravity-like
+/// potential), gradient `(0, P, 0)`, Hessian zero.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TipLoad(pub f64);
+
+impl LocalEnergy for TipLoad {
+    fn n_local(&self) -> usize {
+        3
+    }
+
+    fn local_energy(&self, q: &[f64]) -> f64 {
+        self.0 * q[1]
+    }
+
+    fn local_eval(&self, q: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        grad.copy_from_slice(&[0.0, self.0, 0.0]);
+        if let Some(h) = hess {
+            h.fill(0.0);
+        }
+        self.0 * q[1]
+    }
 }
 
-/// The discrete cantilever as a [`Problem`]; DOFs are the 3 coordinates of each vertex
-/// (ghost vertex first).
+/// The discrete cantilever: a [`Terms`] container (stretch and bending stencils in order
+/// along the rod, then the [`TipLoad`]); DOFs are the 3 coordinates of each vertex (ghost
+/// vertex first).
 pub struct Cantilever {
-    terms: Vec<(Term, Vec<usize>)>,
+    /// The energy terms (a [`crate::Problem`]).
+    pub terms: Terms,
+    load: usize,
     n_vertices: usize,
     spacing: f64,
 }
@@ -69,9 +89,8 @@ impl Cantilever {
     pub fn new(beam: &Beam, segments: usize, load: f64) -> Self {
         let h = beam.length / segments as f64;
         let n_vertices = segments + 2; // ghost + root + segments
-        let dofs = |v: usize| -> Vec<usize> { (3 * v..3 * v + 3).collect() };
-        let cat = |vs: &[usize]| -> Vec<usize> { vs.iter().flat_map(|&v| dofs(v)).collect() };
-        let mut terms = Vec::new();
+        let dofs = |v: usize| [3 * v, 3 * v + 1, 3 * v + 2];
+        let mut terms = Terms::new(3 * n_vertices);
         for v in 1..n_vertices - 1 {
             let stretch = Segment {
                 rest_length: h,
@@ -79,18 +98,21 @@ impl Cantilever {
                     k: beam.axial_stiffness,
                 },
             };
-            terms.push((Term::Stretch(stretch), cat(&[v, v + 1])));
+            let [a, b] = [dofs(v), dofs(v + 1)];
+            terms.push_stencil(stretch, std::array::from_fn(|i| [a, b][i / 3][i % 3]));
             // Vertex v = 1 is the clamp: half its dual cell lies in the beam.
             let rest_lengths = if v == 1 { (0.0, h) } else { (h, h) };
             let bend = BinormalBending {
                 stiffness: beam.bending_stiffness,
                 rest_lengths,
             };
-            terms.push((Term::Bend(bend), cat(&[v - 1, v, v + 1])));
+            let [a, b, c] = [dofs(v - 1), dofs(v), dofs(v + 1)];
+            terms.push_stencil(bend, std::array::from_fn(|i| [a, b, c][i / 3][i % 3]));
         }
-        terms.push((Term::Load(load), dofs(n_vertices - 1)));
+        let load = terms.push(TipLoad(load), &dofs(n_vertices - 1));
         Self {
             terms,
+            load,
             n_vertices,
             spacing: h,
         }
@@ -116,32 +138,8 @@ impl Cantilever {
 
     /// Sets the tip load (N) without changing the stencils (so a solver can be reused).
     pub fn set_load(&mut self, load: f64) {
-        if let Some((Term::Load(p), _)) = self.terms.last_mut() {
-            *p = load;
-        }
-    }
-}
-
-impl Problem for Cantilever {
-    fn n_dofs(&self) -> usize {
-        3 * self.n_vertices
-    }
-    fn n_stencils(&self) -> usize {
-        self.terms.len()
-    }
-    fn stencil_dofs(&self, k: usize) -> &[usize] {
-        &self.terms[k].1
-    }
-    fn eval_stencil(&self, k: usize, x: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
-        let (term, dofs) = &self.terms[k];
-        match term {
-            Term::Stretch(s) => eval_rod_stencil(s, dofs, x, grad, hess),
-            Term::Bend(b) => eval_rod_stencil(b, dofs, x, grad, hess),
-            Term::Load(p) => {
-                // W = P·y_tip (gravity-like potential of a downward load); Hessian zero.
-                grad[1] = *p;
-                p * x[dofs[1]]
-            }
+        if let Some(p) = self.terms.get_mut::<TipLoad>(self.load) {
+            p.0 = load;
         }
     }
 }
@@ -183,12 +181,12 @@ pub fn settings(beam: &Beam) -> NewtonSettings {
 pub fn sweep(beam: &Beam, segments: usize, alphas: &[f64]) -> Result<Vec<SweepPoint>, SolveError> {
     let mut problem = Cantilever::new(beam, segments, 0.0);
     let mut x = problem.straight();
-    let mut solver = NewtonSolver::new(&problem, &problem.fixed())?;
+    let mut solver = NewtonSolver::new(&problem.terms, &problem.fixed())?;
     let s = settings(beam);
     let mut out = Vec::with_capacity(alphas.len());
     for &alpha in alphas {
         problem.set_load(beam.load_for(alpha));
-        let report: NewtonReport = solver.minimize(&problem, &mut x, &s)?;
+        let report: NewtonReport = solver.minimize(&problem.terms, &mut x, &s)?;
         let (dx, dy) = problem.tip(&x);
         out.push(SweepPoint {
             alpha,
@@ -203,7 +201,7 @@ pub fn sweep(beam: &Beam, segments: usize, alphas: &[f64]) -> Result<Vec<SweepPo
 /// The elastica reference for a tip-loaded cantilever (inextensible, unshearable):
 /// `θ'' = −α cos θ` on `s ∈ [0, 1]` (θ the tangent angle below horizontal, arc length in
 /// units of L), `θ(0) = 0`, `θ'(1) = 0`. Solved by shooting on `θ'(0)` (bisection with
-/// [`solver::find_root`]; the root
+/// [`find_root`]; the root
 /// lies in `[0, α]` for the loads used here) with RK4 on 4000 steps.
 /// Returns the tip deflection and retraction over L; an error (no sign change) for `α ≤ 0`
 /// or a non-finite `α`.

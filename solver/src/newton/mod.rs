@@ -1,0 +1,333 @@
+//! Newton minimization with a backtracking line search and Dirichlet DOFs.
+//!
+//! Each iteration (Nocedal & Wright 2006, §3.1 and §3.4) assembles the energy `E`, gradient
+//! `g` and (optionally SPD-projected) Hessian `H` at the current `x`, solves
+//!
+//! ```text
+//! (H_ff + μ I) Δx_f = −g_f
+//! ```
+//!
+//! on the free DOFs `f` (the Dirichlet DOFs keep their values, so their rows and columns are
+//! simply left out of the system: `Δx` is zero there and no right-hand-side correction is
+//! needed), and takes the step `x ← x + α Δx` with the largest `α = β^j` (`j = 0, 1, …`)
+//! satisfying the Armijo condition
+//!
+//! ```text
+//! E(x + α Δx) ≤ E(x) + c α gᵀΔx + ε_E,       ε_E = energy_noise_tolerance · Σ_k |E_k(x)|.
+//! ```
+//!
+//! The search starts at `α = min(1, α_max)` with `α_max` from [`Problem::max_step`] (a
+//! problem-defined admissibility filter, e.g. continuous collision detection; `+∞` by default).
+//!
+//! `ε_E` is a rounding allowance in the spirit of the "approximate Wolfe" condition of Hager &
+//! Zhang (2006, *ACM TOMS* 32(1)): close to the minimum, true energy decreases fall below the
+//! rounding error of the summed energy, and a strict test would reject good Newton steps.
+//!
+//! **Regularization.** Every iteration first tries `μ = 0`. If the sparse Cholesky
+//! factorization fails (the Hessian is not positive definite: no projection, or a
+//! PSD-but-singular projected Hessian), the solve is non-finite, or the line search fails, the
+//! iteration is retried with `μ = b, b γ, b γ², …`, up to `max_regularization_attempts` times;
+//! then the solve returns an error. Here `b = max(μ₀ s, μ_prev / γ)`, `s = max_i |H_ii|`,
+//! `μ₀ = regularization_initial`, `γ = regularization_growth`, and `μ_prev` is the shift the
+//! previous iteration ended with, so that a run through an indefinite region does not repeat
+//! the whole escalation every iteration (as in IPOPT's inertia correction, Wächter & Biegler
+//! 2006, §3.1). Shifting the diagonal is the textbook "Hessian modification" (Nocedal & Wright
+//! Alg. 3.3).
+//!
+//! **Convergence** is declared when the ∞-norm of the gradient on the free DOFs satisfies
+//! `‖g_f‖∞ ≤ max(gradient_abs_tol, gradient_rel_tol · ‖g_f(x₀)‖∞)`, or when an unregularized
+//! Newton step satisfies `‖Δx‖∞ ≤ step_tol`. Everything else (iteration limit, line-search
+//! failure, non-finite values, factorization failure) is an `Err` that carries the report.
+//!
+//! **Linear solver** ([`NewtonSettings::linear_solver`]). The default is the sparse
+//! Cholesky factorization above; [`LinearSolver::ConjugateGradient`] instead solves the same
+//! shifted system with Jacobi-preconditioned conjugate gradients ([`crate::pcg`]) to a
+//! relative residual tolerance. A CG solve that meets a non-positive curvature is treated like
+//! a failed factorization (the shift escalates); one that reaches its iteration cap is a hard
+//! [`Termination::FactorizationFailed`] whose detail names the CG residual. The CG iteration
+//! count of each accepted step is reported in [`NewtonReport::linear_iterations`].
+//!
+//! **Fixed-iteration mode.** With `line_search = false` every step is taken at full length
+//! `α = min(1, α_max)` without the Armijo test, and with `accept_iteration_limit = true`
+//! reaching `max_iterations` ends the run successfully with
+//! [`Termination::IterationLimit`] (not converged; the residual at the final iterate is
+//! still computed and reported). `max_iterations = 1` with both gives one linearized Newton
+//! step, e.g. the linearized implicit Euler of Baraff & Witkin (1998).
+//!
+//! The symbolic factorization is computed once per [`NewtonSolver`] (on the first Cholesky
+//! solve); all numeric work other than the stencil evaluations and the conjugate gradients
+//! runs sequentially, and the conjugate gradients sum in fixed chunks, so results do not
+//! depend on the thread count.
+
+use crate::SolveError;
+use crate::assembly::{Assembler, Problem, check_len};
+use crate::pcg::PcgSettings;
+
+mod driver;
+mod free_dofs;
+
+pub(crate) use driver::{NewtonSystem, SystemFailure, inf_norm, run_newton};
+use free_dofs::FreeDofSystem;
+
+/// How the Newton system `(H_ff + μ I) Δx_f = −g_f` is solved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LinearSolver {
+    /// Sparse Cholesky `L Lᵀ` with AMD ordering (faer, supernodal); the symbolic analysis is
+    /// computed once per solver and reused. Exact up to rounding.
+    Cholesky,
+    /// Jacobi-preconditioned conjugate gradients ([`crate::pcg`]) to the given relative
+    /// residual tolerance and iteration cap. Unconstrained solves only.
+    ConjugateGradient(PcgSettings),
+}
+
+/// Parameters of [`minimize`] and [`crate::minimize_constrained`]. `Default` gives the values
+/// documented on each field.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NewtonSettings {
+    /// Maximum number of Newton steps. Default `100`.
+    pub max_iterations: usize,
+    /// Absolute tolerance on the ∞-norm of the free-DOF gradient (for constrained problems,
+    /// of the Lagrangian gradient `g + Cᵀλ`), in energy units per DOF unit (N for positions in
+    /// m). Default `1e-10`.
+    pub gradient_abs_tol: f64,
+    /// Tolerance on the same norm relative to its value at the initial iterate. Default `1e-10`.
+    pub gradient_rel_tol: f64,
+    /// Convergence is also declared when an unregularized Newton step has
+    /// `‖Δx‖∞ ≤ step_tol` (DOF units, m for positions); `0` disables the test. Default `1e-14`.
+    pub step_tol: f64,
+    /// Armijo sufficient-decrease constant `c ∈ (0, 1)`. Default `1e-4`.
+    pub armijo: f64,
+    /// Backtracking factor `β ∈ (0, 1)`. Default `0.5`.
+    pub backtrack_factor: f64,
+    /// Maximum number of step halvings (reductions by `β`) per line search. Default `40`.
+    pub max_backtracks: usize,
+    /// Relative rounding allowance `ε_E / Σ_k |E_k|` in the Armijo test (see the module
+    /// documentation); `0` gives the strict test. Default `1e-12`.
+    pub energy_noise_tolerance: f64,
+    /// Project every local Hessian onto the PSD cone before assembly. Default `true`.
+    pub project_spd: bool,
+    /// First diagonal shift, relative to `max_i |H_ii|` (see module docs). Default `1e-8`.
+    pub regularization_initial: f64,
+    /// Growth factor `γ > 1` of the shift between attempts. Default `10`.
+    pub regularization_growth: f64,
+    /// Number of regularized retries per iteration before giving up. Default `14` (largest
+    /// shift `1e5 · max_i |H_ii|` with the defaults above).
+    pub max_regularization_attempts: usize,
+    /// Constrained solves only: the iterate is feasible when
+    /// `‖Cx − d‖∞ ≤ constraint_tol · (‖C‖∞ ‖x‖∞ + ‖d‖∞)` (a rounding-level test in the units
+    /// of `d`), and convergence requires feasibility. Default `1e-12`.
+    pub constraint_tol: f64,
+    /// Linear solver of the Newton system. Default [`LinearSolver::Cholesky`].
+    pub linear_solver: LinearSolver,
+    /// Backtracking line search (Armijo). With `false`, every step is taken at
+    /// `α = min(1, α_max)` without evaluating the energy along it. Default `true`.
+    pub line_search: bool,
+    /// When `true`, reaching `max_iterations` without convergence ends the run with `Ok`
+    /// and [`Termination::IterationLimit`] instead of an error. Default `false`.
+    pub accept_iteration_limit: bool,
+}
+
+impl Default for NewtonSettings {
+    fn default() -> Self {
+        Self {
+            max_iterations: 100,
+            gradient_abs_tol: 1e-10,
+            gradient_rel_tol: 1e-10,
+            step_tol: 1e-14,
+            armijo: 1e-4,
+            backtrack_factor: 0.5,
+            max_backtracks: 40,
+            energy_noise_tolerance: 1e-12,
+            project_spd: true,
+            regularization_initial: 1e-8,
+            regularization_growth: 10.0,
+            max_regularization_attempts: 14,
+            constraint_tol: 1e-12,
+            linear_solver: LinearSolver::Cholesky,
+            line_search: true,
+            accept_iteration_limit: false,
+        }
+    }
+}
+
+impl NewtonSettings {
+    /// Checks every field's range.
+    pub fn validate(&self) -> Result<(), SolveError> {
+        let bad = |msg: &str| Err(SolveError::InvalidSettings(msg.to_owned()));
+        let nonneg = |v: f64| v.is_finite() && v >= 0.0;
+        if !nonneg(self.gradient_abs_tol) || !nonneg(self.gradient_rel_tol) {
+            return bad("gradient tolerances must be finite and ≥ 0");
+        }
+        if !nonneg(self.step_tol) || !nonneg(self.energy_noise_tolerance) {
+            return bad("step_tol and energy_noise_tolerance must be finite and ≥ 0");
+        }
+        if !(self.armijo > 0.0 && self.armijo < 1.0) {
+            return bad("armijo must lie in (0, 1)");
+        }
+        if !(self.backtrack_factor > 0.0 && self.backtrack_factor < 1.0) {
+            return bad("backtrack_factor must lie in (0, 1)");
+        }
+        if !(self.regularization_initial > 0.0 && self.regularization_initial.is_finite()) {
+            return bad("regularization_initial must be finite and > 0");
+        }
+        if !(self.regularization_growth > 1.0 && self.regularization_growth.is_finite()) {
+            return bad("regularization_growth must be finite and > 1");
+        }
+        if !nonneg(self.constraint_tol) {
+            return bad("constraint_tol must be finite and ≥ 0");
+        }
+        if let LinearSolver::ConjugateGradient(pcg) = &self.linear_solver {
+            pcg.validate()?;
+        }
+        Ok(())
+    }
+}
+
+/// Why a Newton run stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Termination {
+    /// Converged: the gradient test passed.
+    GradientTolerance,
+    /// Converged: an unregularized Newton step was below `step_tol`.
+    StepTolerance,
+    /// Failed: `max_iterations` steps taken without convergence.
+    MaxIterations,
+    /// Failed: no step length satisfied the Armijo condition at any regularization.
+    LineSearchFailed,
+    /// Failed: non-finite energy, gradient or Hessian.
+    NonFinite,
+    /// Failed: the Newton system could not be factorized or solved at any regularization,
+    /// or the conjugate gradients did not reach their tolerance.
+    FactorizationFailed,
+    /// Stopped after `max_iterations` steps without convergence, accepted because
+    /// [`NewtonSettings::accept_iteration_limit`] is set (not converged, but not an error).
+    IterationLimit,
+}
+
+impl Termination {
+    /// Whether this is a successful termination.
+    pub fn is_converged(self) -> bool {
+        matches!(self, Self::GradientTolerance | Self::StepTolerance)
+    }
+}
+
+/// History of a Newton run. Returned on success and attached to every solver error.
+///
+/// Index `i` of the `*_history` vectors refers to iterate `x_i` (`x_0` is the input, after
+/// feasibility restoration for constrained solves); the per-step vectors have one entry per
+/// accepted step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NewtonReport {
+    /// Number of accepted Newton steps.
+    pub iterations: usize,
+    /// Energy at each iterate.
+    pub energy_history: Vec<f64>,
+    /// Stationarity residual at each iterate: `‖g_f‖∞` (unconstrained) or `‖g + Cᵀλ‖∞`
+    /// (constrained). May be one shorter than `energy_history` if the last solve failed.
+    pub residual_history: Vec<f64>,
+    /// Constrained solves: `‖Cx − d‖∞` at each iterate; empty for unconstrained solves.
+    pub constraint_violation_history: Vec<f64>,
+    /// Constrained solves: `‖Cx₀ − d‖∞` of the input, before feasibility restoration.
+    pub initial_constraint_violation: f64,
+    /// Accepted step length `α` of each step.
+    pub step_lengths: Vec<f64>,
+    /// Diagonal shift `μ` used for each step (0 when the plain Newton system worked).
+    pub regularizations: Vec<f64>,
+    /// Total number of rejected trial steps over all line searches.
+    pub line_search_backtracks: usize,
+    /// Conjugate-gradient iterations of each accepted step's linear solve (0 for Cholesky).
+    pub linear_iterations: Vec<usize>,
+    /// Where the run's wall time went (diagnostics only; not deterministic).
+    pub timings: NewtonTimings,
+    /// Why the run stopped.
+    pub termination: Termination,
+}
+
+impl NewtonReport {
+    /// Whether the run converged.
+    pub fn converged(&self) -> bool {
+        self.termination.is_converged()
+    }
+
+    /// The last recorded residual (`NaN` if none).
+    pub fn last_residual(&self) -> f64 {
+        self.residual_history.last().copied().unwrap_or(f64::NAN)
+    }
+
+    /// The last recorded energy (`NaN` if none).
+    pub fn last_energy(&self) -> f64 {
+        self.energy_history.last().copied().unwrap_or(f64::NAN)
+    }
+}
+
+/// Wall time (s) of the phases of a Newton run, summed over all iterations and attempts.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NewtonTimings {
+    /// Energy, gradient and Hessian assembly at the iterates (stencil evaluation and scatter).
+    pub assembly: f64,
+    /// Linear solves: numeric factorizations and triangular solves, or conjugate gradients
+    /// (the first Cholesky solve of a solver includes no symbolic analysis: that is built
+    /// before the run).
+    pub linear_solve: f64,
+    /// Line searches (energy evaluations at trial points) and step-bound queries.
+    pub line_search: f64,
+}
+/// A reusable Newton minimizer for one problem structure and one set of Dirichlet DOFs.
+///
+/// Building it computes the sparsity pattern once; the symbolic Cholesky factorization (or
+/// the conjugate-gradient workspace) is built on the first [`minimize`](Self::minimize) that
+/// needs it. [`minimize`](Self::minimize) can be called many times (e.g. once per time step)
+/// on problems with the same stencils.
+pub struct NewtonSolver {
+    assembler: Assembler,
+    system: FreeDofSystem,
+}
+
+impl NewtonSolver {
+    /// Prepares a solver for `problem` with Dirichlet DOFs `fixed` (`fixed.len() == n_dofs`;
+    /// pass all `false` for none).
+    pub fn new<P: Problem + ?Sized>(problem: &P, fixed: &[bool]) -> Result<Self, SolveError> {
+        let assembler = Assembler::with_fixed_dofs(problem, fixed)?;
+        let system = FreeDofSystem::new(&assembler);
+        Ok(Self { assembler, system })
+    }
+
+    /// Minimizes the problem's energy over the free DOFs, starting from and overwriting `x`;
+    /// the fixed DOFs keep their values in `x`. See the [module documentation](self).
+    pub fn minimize<P: Problem + ?Sized>(
+        &mut self,
+        problem: &P,
+        x: &mut [f64],
+        settings: &NewtonSettings,
+    ) -> Result<NewtonReport, SolveError> {
+        settings.validate()?;
+        check_len("x", self.assembler.n_dofs(), x.len())?;
+        self.system
+            .prepare(&self.assembler, settings.linear_solver)?;
+        run_newton(
+            problem,
+            x,
+            settings,
+            &mut self.assembler,
+            &mut self.system,
+            0.0,
+        )
+    }
+
+    /// The assembler (pattern, last gradient and Hessian).
+    pub fn assembler(&self) -> &Assembler {
+        &self.assembler
+    }
+}
+
+/// Minimizes `problem`'s energy starting from `x` (overwritten with the minimizer), holding the
+/// DOFs with `fixed[dof] == true` at their current values. One-shot convenience for
+/// [`NewtonSolver::new`] followed by [`NewtonSolver::minimize`].
+pub fn minimize<P: Problem + ?Sized>(
+    problem: &P,
+    x: &mut [f64],
+    fixed: &[bool],
+    settings: &NewtonSettings,
+) -> Result<NewtonReport, SolveError> {
+    NewtonSolver::new(problem, fixed)?.minimize(problem, x, settings)
+}

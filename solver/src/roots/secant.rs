@@ -1,0 +1,371 @@
+//! Secant root finding from one start point, without a bracket ([`secant`]).
+
+use crate::continuation::StepError;
+
+/// One evaluation of the function: value, tolerance and the caller's data at this point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SecantEval<T> {
+    /// `f(x)`.
+    pub f: f64,
+    /// Converged when `|f(x)| ≤ f_tol` (units of `f`).
+    pub f_tol: f64,
+    /// What the evaluation produced besides `f` (returned with the root).
+    pub data: T,
+}
+
+/// Settings of [`secant`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SecantSettings {
+    /// Distance of the second start point from the first, and the step taken when the
+    /// secant is undefined (`f₁ = f₀`) (units of `x`, > 0).
+    pub first_step: f64,
+    /// Largest move of one secant step (units of `x`, > 0).
+    pub max_step: f64,
+    /// Smallest admissible point (units of `x`; may be `−∞`).
+    pub lower: f64,
+    /// Largest admissible point (units of `x`; may be `+∞`).
+    pub upper: f64,
+    /// Most secant steps after the two start points.
+    pub max_iterations: usize,
+    /// Retries of a failed evaluation at the midpoint toward the last point.
+    pub max_retries: usize,
+}
+
+/// A root found by [`secant`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SecantRoot<T> {
+    /// The root (units of `x`): the last evaluated point.
+    pub x: f64,
+    /// `f` there (within its tolerance of 0).
+    pub f: f64,
+    /// The evaluation's data there.
+    pub data: T,
+    /// Secant steps taken (0: the second start point converged).
+    pub iterations: usize,
+}
+
+/// The state of a [`secant`] iteration that failed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SecantReport {
+    /// Secant steps taken.
+    pub iterations: usize,
+    /// Newest point (units of `x`).
+    pub x: f64,
+    /// `f` there.
+    pub f: f64,
+    /// The retained other point (units of `x`).
+    pub x_other: f64,
+    /// Its value (halved by the Illinois rule, possibly repeatedly).
+    pub f_other: f64,
+    /// Whether the two points bracket a sign change.
+    pub bracketed: bool,
+}
+
+impl SecantReport {
+    /// `min(|f|, |f_other|)`: the smaller residual of the two points.
+    pub fn best_abs_f(&self) -> f64 {
+        self.f.abs().min(self.f_other.abs())
+    }
+}
+
+/// Errors of [`secant`].
+#[derive(Debug, thiserror::Error)]
+pub enum SecantError<E> {
+    /// Invalid settings or start point.
+    #[error("invalid secant input: {0}")]
+    InvalidInput(String),
+    /// `f` was NaN, or the secant point was not finite.
+    #[error("non-finite secant iteration at x = {}", .0.x)]
+    NonFinite(SecantReport),
+    /// No convergence within the iteration limit.
+    #[error(
+        "secant not converged in {} steps (|f| = {:.3e} at x = {})",
+        .0.iterations, .0.f.abs(), .0.x
+    )]
+    NotConverged(SecantReport),
+    /// The user function failed (after its retries).
+    #[error("function evaluation failed at x = {x}")]
+    Eval {
+        /// Where.
+        x: f64,
+        /// The user function's error.
+        source: E,
+    },
+}
+
+/// Finds a root of `f` starting at `x0`: solves `f(x) = 0` for a scalar `f` that is expensive (every evaluation a
+/// nonlinear solve, say) and has no known sign-change bracket, only a good start `x₀`:
+///
+/// 1. `f(x₀)` is evaluated, then `f(x₁)` at `x₁ = x₀ + first_step` when `f(x₀) > 0`,
+///    `x₀ − first_step` otherwise (toward the root of a *decreasing* function; for an
+///    increasing one the first secant step turns around by itself).
+/// 2. Each iteration first tests the newest point: converged when `|f(x₁)| ≤ f_tol`, where
+///    `f_tol` comes with every evaluation ([`SecantEval`]), so it may depend on the point
+///    (e.g. relative to another output of the same evaluation). The start point `x₀` itself
+///    is never accepted: the second point is always evaluated.
+/// 3. Otherwise the secant point `x₂ = x₁ − f₁ (x₁ − x₀)/(f₁ − f₀)` (`x₁ + first_step` when
+///    `f₁ = f₀`) is clipped to `|x₂ − x₁| ≤ max_step`, then to `x₂ ≤ upper` and `x₂ ≥ lower`.
+/// 4. An evaluation that fails with [`StepError::Halve`] is retried at the midpoint
+///    `(x₁ + x₂)/2`, at most `max_retries` times; [`StepError::Abort`] (and any failure at the
+///    two start points) stops at once.
+/// 5. Until the values change sign the two newest points are kept (secant). Once they do, the
+///    root stays bracketed by `x₁` and the retained end `x₀` (regula falsi) with the
+///    **Illinois** safeguard: when the same end is retained twice in a row, its value is
+///    halved, so that end moves too and convergence stays superlinear.
+///
+/// Sign tests use `f64::signum` (so `+0.0` counts as positive and `−0.0` as negative).
+///
+/// **Failure.** Not converging within `max_iterations` secant steps is
+/// [`SecantError::NotConverged`]; a NaN value or a non-finite secant point is
+/// [`SecantError::NonFinite`]; both carry a [`SecantReport`].
+pub fn secant<T, E>(
+    x0: f64,
+    settings: &SecantSettings,
+    mut f: impl FnMut(f64) -> Result<SecantEval<T>, StepError<E>>,
+) -> Result<SecantRoot<T>, SecantError<E>> {
+    let SecantSettings {
+        first_step,
+        max_step,
+        lower,
+        upper,
+        max_iterations,
+        max_retries,
+    } = *settings;
+    if !(first_step.is_finite() && first_step > 0.0 && max_step.is_finite() && max_step > 0.0) {
+        return Err(SecantError::InvalidInput(format!(
+            "first_step {first_step} and max_step {max_step} must be finite and > 0"
+        )));
+    }
+    if !(x0.is_finite() && lower <= x0 && x0 <= upper) {
+        return Err(SecantError::InvalidInput(format!(
+            "start {x0} must be finite and inside [{lower}, {upper}]"
+        )));
+    }
+    let mut eval = |x: f64| -> Result<SecantEval<T>, SecantError<E>> {
+        f(x).map_err(|e| SecantError::Eval {
+            x,
+            source: e.into_inner(),
+        })
+    };
+    let (mut x0, mut f0) = (x0, eval(x0)?.f);
+    let mut x1 = x0 + if f0 > 0.0 { first_step } else { -first_step };
+    let SecantEval {
+        f: mut f1,
+        f_tol: mut tol1,
+        data: mut data1,
+    } = eval(x1)?;
+    let mut bracketed = f0.signum() != f1.signum();
+    let mut retained = false; // Illinois bookkeeping: the end x0 was retained last step
+    let report = |iterations, x, f, x_other, f_other, bracketed| SecantReport {
+        iterations,
+        x,
+        f,
+        x_other,
+        f_other,
+        bracketed,
+    };
+    for iteration in 0..max_iterations {
+        if f1.abs() <= tol1 {
+            return Ok(SecantRoot {
+                x: x1,
+                f: f1,
+                data: data1,
+                iterations: iteration,
+            });
+        }
+        if f0.is_nan() || f1.is_nan() {
+            return Err(SecantError::NonFinite(report(
+                iteration, x1, f1, x0, f0, bracketed,
+            )));
+        }
+        let denom = f1 - f0;
+        let mut x2 = if denom != 0.0 {
+            x1 - f1 * (x1 - x0) / denom
+        } else {
+            x1 + first_step
+        };
+        // `min`/`max` (not `clamp`) so that a NaN secant point lands on `upper`.
+        x2 = x2.clamp(x1 - max_step, x1 + max_step).min(upper).max(lower);
+        if !x2.is_finite() {
+            return Err(SecantError::NonFinite(report(
+                iteration, x2, f1, x0, f0, bracketed,
+            )));
+        }
+        let mut trial = f(x2);
+        for _ in 0..max_retries {
+            if !matches!(trial, Err(StepError::Halve(_))) {
+                break;
+            }
+            x2 = 0.5 * (x1 + x2);
+            trial = f(x2);
+        }
+        let SecantEval {
+            f: f2,
+            f_tol: tol2,
+            data: data2,
+        } = trial.map_err(|e| SecantError::Eval {
+            x: x2,
+            source: e.into_inner(),
+        })?;
+        if bracketed {
+            if f2.signum() == f1.signum() {
+                // x0 retained: halve its value if it was retained last step too (Illinois).
+                if retained {
+                    f0 *= 0.5;
+                }
+                retained = true;
+            } else {
+                (x0, f0) = (x1, f1);
+                retained = false;
+            }
+        } else {
+            bracketed = f2.signum() != f1.signum();
+            (x0, f0) = (x1, f1);
+        }
+        (x1, f1, tol1, data1) = (x2, f2, tol2, data2);
+    }
+    Err(SecantError::NotConverged(report(
+        max_iterations,
+        x1,
+        f1,
+        x0,
+        f0,
+        bracketed,
+    )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::convert::Infallible;
+
+    fn settings() -> SecantSettings {
+        SecantSettings {
+            first_step: 0.01,
+            max_step: 0.2,
+            lower: f64::NEG_INFINITY,
+            upper: f64::INFINITY,
+            max_iterations: 50,
+            max_retries: 4,
+        }
+    }
+
+    fn value(f: f64, tol: f64) -> Result<SecantEval<()>, StepError<Infallible>> {
+        Ok(SecantEval {
+            f,
+            f_tol: tol,
+            data: (),
+        })
+    }
+
+    #[test]
+    fn finds_roots_of_decreasing_and_increasing_functions() {
+        // Decreasing: 0.3 − x³ − x, root near 0.2880.
+        let dec = |x: f64| 0.3 - x * x * x - x;
+        let r = secant(0.0, &settings(), |x| value(dec(x), 1e-14)).unwrap();
+        assert!(dec(r.x).abs() <= 1e-14, "{r:?}");
+        assert!(r.iterations < 10, "{r:?}");
+        // Increasing: tanh(x − 0.7); the first step goes the wrong way and turns around.
+        let inc = |x: f64| (x - 0.7).tanh();
+        let r = secant(0.5, &settings(), |x| value(inc(x), 1e-13)).unwrap();
+        assert!((r.x - 0.7).abs() <= 1e-12, "{r:?}");
+    }
+
+    #[test]
+    fn illinois_keeps_a_bracket_and_converges_on_a_convex_function() {
+        // exp(x) − 2 (convex): plain regula falsi would keep one end for ever.
+        let f = |x: f64| x.exp() - 2.0;
+        let mut points = vec![];
+        let r = secant(1.0, &settings(), |x| {
+            points.push(x);
+            value(f(x), 1e-14)
+        })
+        .unwrap();
+        assert!((r.x - 2f64.ln()).abs() <= 1e-13, "{r:?}");
+        assert!(r.iterations < 15, "{r:?} {points:?}");
+        // The max_step clip: no step longer than 0.2.
+        assert!(
+            points
+                .windows(2)
+                .all(|w| (w[1] - w[0]).abs() <= 0.2 + 1e-15)
+        );
+    }
+
+    #[test]
+    fn tolerance_and_data_come_from_the_evaluation() {
+        // The start point is never accepted: two evaluations at least.
+        let mut calls = 0;
+        let r = secant(0.5, &settings(), |x| {
+            calls += 1;
+            Ok::<_, StepError<Infallible>>(SecantEval {
+                f: 0.5 - x,
+                f_tol: 1.0,
+                data: calls,
+            })
+        })
+        .unwrap();
+        assert_eq!((r.x, r.data, r.iterations), (0.49, 2, 0));
+    }
+
+    #[test]
+    fn failed_evaluations_are_retried_closer_and_bounds_clip() {
+        // f fails beyond x = 0.3; the root 0.35 lies there, so the clip `upper = 0.3`
+        // and the retries keep the iteration inside, and it ends without convergence.
+        let f = |x: f64| {
+            if x > 0.3 {
+                Err(StepError::Halve("jammed"))
+            } else {
+                value(0.35 - x, 1e-12).map_err(|_| StepError::Abort("never"))
+            }
+        };
+        let clipped = SecantSettings {
+            upper: 0.3,
+            max_iterations: 5,
+            ..settings()
+        };
+        match secant(0.2, &clipped, f) {
+            Err(SecantError::NotConverged(r)) => {
+                assert_eq!(r.x, 0.3);
+                assert!((r.best_abs_f() - 0.05).abs() < 1e-12, "{r:?}");
+            }
+            other => panic!("{other:?}"),
+        }
+        // Unclipped, the secant step to ≈ 0.35 fails and is retried at the midpoint toward
+        // 0.21 (≈ 0.28), which succeeds; the root itself stays unreachable.
+        let mut tried = vec![];
+        let err = secant(0.2, &settings(), |x| {
+            tried.push(x);
+            f(x)
+        });
+        assert!((tried[2] - 0.35).abs() < 1e-12 && (tried[3] - 0.28).abs() < 1e-12);
+        assert!(err.is_err(), "{tried:?}");
+    }
+
+    #[test]
+    fn aborts_nan_and_bad_input_are_errors() {
+        let abort = secant(0.0, &settings(), |x| {
+            if x == 0.0 {
+                value(1.0, 0.0).map_err(|_| StepError::Abort("x"))
+            } else {
+                Err(StepError::Abort("no equilibrium"))
+            }
+        });
+        assert!(matches!(
+            abort,
+            Err(SecantError::Eval {
+                source: "no equilibrium",
+                ..
+            })
+        ));
+        let nan = secant(0.0, &settings(), |_| value(f64::NAN, 1.0));
+        assert!(matches!(nan, Err(SecantError::NonFinite(_))));
+        let bad = SecantSettings {
+            first_step: 0.0,
+            ..settings()
+        };
+        assert!(matches!(
+            secant(0.0, &bad, |x| value(x, 0.0)),
+            Err(SecantError::InvalidInput(_))
+        ));
+    }
+}
