@@ -258,7 +258,11 @@ mod tests {
         };
         assert_eq!(uniaxial_compression(&stvk, 2.0, 0.0).unwrap(), 1.0);
         for s in [0.1, 0.5, 1.0, 2.0, 3.0] {
-            for angle in [0.0, std::f64::consts::FRAC_PI_4, std::f64::consts::FRAC_PI_2] {
+            for angle in [
+                0.0,
+                std::f64::consts::FRAC_PI_4,
+                std::f64::consts::FRAC_PI_2,
+            ] {
                 let c = uniaxial_compression(&stiff, s, angle).unwrap();
                 assert!(c > 0.0 && c < 1.0, "s = {s}, angle {angle}: c = {c}");
             }

@@ -32,7 +32,12 @@ fn every_shared_file_is_read_and_paired_into_eight_fabrics() {
         let dirs: Vec<Direction> = f.measurements.iter().map(|m| m.direction).collect();
         assert_eq!(dirs, [Direction::Weft, Direction::Warp], "{}", f.name);
         for m in &f.measurements {
-            assert!(m.points.len() >= 20, "{}: {} bins", m.source, m.points.len());
+            assert!(
+                m.points.len() >= 20,
+                "{}: {} bins",
+                m.source,
+                m.points.len()
+            );
             assert!(m.points.windows(2).all(|w| w[1].s > w[0].s), "{}", m.source);
         }
     }
@@ -44,7 +49,9 @@ fn unplaceable_file_names_and_duplicate_directions_are_errors() {
     std::fs::create_dir_all(&dir).unwrap();
     let src = data_dir().join("acrylic-yarn-garter-x.csv");
     std::fs::copy(&src, dir.join("mystery.csv")).unwrap();
-    let e = discover(&dir, &BinOptions::default()).unwrap_err().to_string();
+    let e = discover(&dir, &BinOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("mystery.csv:0: cannot tell the fabric and direction"),
         "{e}"
@@ -52,7 +59,9 @@ fn unplaceable_file_names_and_duplicate_directions_are_errors() {
     std::fs::remove_file(dir.join("mystery.csv")).unwrap();
     std::fs::copy(&src, dir.join("wool_garterx.csv")).unwrap();
     std::fs::copy(&src, dir.join("wool-garter-x-new.csv")).unwrap();
-    let e = discover(&dir, &BinOptions::default()).unwrap_err().to_string();
+    let e = discover(&dir, &BinOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("fabric `wool-garter` has two weft tests"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -84,8 +93,14 @@ fn paper_metric_is_relative_to_the_mean_measured_datum() {
     let weft = &e.directions[0];
     assert!(close(weft.force_error, 0.25), "{weft:?}");
     assert!(close(weft.compression_error, 0.02 / 0.21), "{weft:?}");
-    assert!(close(weft.force_rel_error, 0.5 * (0.5 + 0.5 / 3.0)), "{weft:?}");
-    assert!(close(weft.compression_rel_error, 0.5 * (1.0 + 0.05)), "{weft:?}");
+    assert!(
+        close(weft.force_rel_error, 0.5 * (0.5 + 0.5 / 3.0)),
+        "{weft:?}"
+    );
+    assert!(
+        close(weft.compression_rel_error, 0.5 * (1.0 + 0.05)),
+        "{weft:?}"
+    );
     let warp = &e.directions[1];
     assert!(close(warp.force_error, 0.2 / 4.0) && close(warp.compression_error, 0.0));
     // Fabric: mean over the two directions.
