@@ -177,6 +177,19 @@ pub fn fit_config(
     cfg
 }
 
+/// Fits `model` to `opts.targets` targets per direction of `measurements`, from
+/// [`initial_guess_for`] with [`fit_config`].
+fn fit_measurements(
+    model: Model,
+    measurements: &[Measurement],
+    opts: &FabricFitOptions,
+) -> Result<FitResult, ShellError> {
+    let cfg = fit_config(model, measurements, opts);
+    let tg = targets(measurements, opts.targets);
+    let initial = initial_guess_for(model, measurements, cfg.swatch.width);
+    fit(&tg, initial, &cfg, None)
+}
+
 /// Simulates `params` at `points` and compares.
 fn evaluate(
     model: Model,
@@ -207,12 +220,9 @@ pub fn fit_fabric(
     opts: &FabricFitOptions,
 ) -> Result<FabricFit, ShellError> {
     let m = &fabric.measurements;
-    let cfg = fit_config(model, m, opts);
-    let tg = targets(m, opts.targets);
-    let initial = initial_guess_for(model, m, cfg.swatch.width);
-    let result = fit(&tg, initial, &cfg, None)?;
+    let result = fit_measurements(model, m, opts)?;
     let bins = bin_targets(m);
-    let (bins_simulated, all_bins) = evaluate(model, &result.params, &bins, &cfg.swatch)?;
+    let (bins_simulated, all_bins) = evaluate(model, &result.params, &bins, &opts.swatch)?;
     Ok(FabricFit {
         fabric: fabric.name.clone(),
         fit: result,
@@ -265,11 +275,8 @@ pub fn holdout(
             ..m.clone()
         });
     }
-    let cfg = fit_config(model, &lower, opts);
-    let tg = targets(&lower, opts.targets);
-    let initial = initial_guess_for(model, &lower, cfg.swatch.width);
-    let result = fit(&tg, initial, &cfg, None)?;
-    let (_, held_out) = evaluate(model, &result.params, &bin_targets(&upper), &cfg.swatch)?;
+    let result = fit_measurements(model, &lower, opts)?;
+    let (_, held_out) = evaluate(model, &result.params, &bin_targets(&upper), &opts.swatch)?;
     Ok(Holdout {
         fraction,
         fitted: result.errors,

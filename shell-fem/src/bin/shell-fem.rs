@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
@@ -62,6 +62,36 @@ enum WeightArg {
     Relative,
 }
 
+/// Swatch, target and optimizer options shared by `fit` and `fit-all`.
+#[derive(Args)]
+struct FitArgs {
+    /// Cells along the swatch length (even).
+    #[arg(long, default_value_t = 20)]
+    nx: usize,
+    /// Cells across the swatch width.
+    #[arg(long, default_value_t = 12)]
+    ny: usize,
+    /// Targets per direction.
+    #[arg(long, default_value_t = 6)]
+    targets: usize,
+    /// Strain bins for stitch-by-stitch data.
+    #[arg(long, default_value_t = 24)]
+    bins: usize,
+    /// Maximum Levenberg–Marquardt iterations per fit.
+    #[arg(long, default_value_t = 200)]
+    max_iterations: usize,
+}
+
+impl FitArgs {
+    fn swatch(&self) -> SwatchConfig {
+        SwatchConfig {
+            nx: self.nx,
+            ny: self.ny,
+            ..SwatchConfig::default()
+        }
+    }
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Fit {kxx, kxy, kyy, kss, kn1, kn2} to measurements (Eq. 2) and write parameters,
@@ -75,24 +105,11 @@ enum Command {
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
-        /// Cells along the swatch length (even).
-        #[arg(long, default_value_t = 20)]
-        nx: usize,
-        /// Cells across the swatch width.
-        #[arg(long, default_value_t = 12)]
-        ny: usize,
-        /// Targets per direction.
-        #[arg(long, default_value_t = 6)]
-        targets: usize,
-        /// Strain bins for stitch-by-stitch data.
-        #[arg(long, default_value_t = 24)]
-        bins: usize,
+        #[command(flatten)]
+        fit: FitArgs,
         /// Material model.
         #[arg(long, value_enum, default_value_t = ModelArg::Augmented)]
         model: ModelArg,
-        /// Maximum Levenberg–Marquardt iterations.
-        #[arg(long, default_value_t = 200)]
-        max_iterations: usize,
         /// Residual weighting: `mean` (paper: per-direction mean) or `relative`.
         #[arg(long, value_enum, default_value_t = WeightArg::Mean)]
         weighting: WeightArg,
@@ -122,21 +139,8 @@ enum Command {
         /// Models to fit (comma-separated).
         #[arg(long, value_enum, value_delimiter = ',', default_values_t = [ModelArg::Stvk, ModelArg::Augmented, ModelArg::Stiffening])]
         models: Vec<ModelArg>,
-        /// Cells along the swatch length (even).
-        #[arg(long, default_value_t = 20)]
-        nx: usize,
-        /// Cells across the swatch width.
-        #[arg(long, default_value_t = 12)]
-        ny: usize,
-        /// Targets per direction.
-        #[arg(long, default_value_t = 6)]
-        targets: usize,
-        /// Strain bins for stitch-by-stitch data.
-        #[arg(long, default_value_t = 24)]
-        bins: usize,
-        /// Maximum Levenberg–Marquardt iterations per fit.
-        #[arg(long, default_value_t = 200)]
-        max_iterations: usize,
+        #[command(flatten)]
+        fit: FitArgs,
         /// Also fit the lower fraction of each stretch range and report the error above it
         /// (0 = off).
         #[arg(long, default_value_t = 0.0)]
@@ -638,23 +642,14 @@ fn main() -> Result<()> {
         Command::Fit {
             data,
             out,
-            nx,
-            ny,
-            targets,
-            bins,
+            fit,
             model: m,
             weighting,
-            max_iterations,
             bending,
             pear_nx,
             pear_ny,
             kappa_max,
         } => {
-            let swatch = SwatchConfig {
-                nx,
-                ny,
-                ..SwatchConfig::default()
-            };
             let w = match weighting {
                 WeightArg::Mean => Weighting::DirectionMean,
                 WeightArg::Relative => Weighting::Relative,
@@ -662,12 +657,12 @@ fn main() -> Result<()> {
             run_fit(
                 &data,
                 &out,
-                swatch,
-                targets,
-                bins,
+                fit.swatch(),
+                fit.targets,
+                fit.bins,
                 model(m),
                 w,
-                max_iterations,
+                fit.max_iterations,
                 &BendingArgs {
                     data: bending,
                     pear_nx,
@@ -680,11 +675,7 @@ fn main() -> Result<()> {
             dir,
             out,
             models,
-            nx,
-            ny,
-            targets,
-            bins,
-            max_iterations,
+            fit,
             holdout,
         } => run_fit_all(
             &dir,
@@ -692,15 +683,11 @@ fn main() -> Result<()> {
             &FitAllArgs {
                 models: models.into_iter().map(model).collect(),
                 opts: FabricFitOptions {
-                    targets,
-                    swatch: SwatchConfig {
-                        nx,
-                        ny,
-                        ..SwatchConfig::default()
-                    },
-                    max_iterations,
+                    targets: fit.targets,
+                    swatch: fit.swatch(),
+                    max_iterations: fit.max_iterations,
                 },
-                bins,
+                bins: fit.bins,
                 holdout,
             },
         ),
