@@ -5,7 +5,8 @@
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use shell_fem::material::{InPlaneParams, Material};
-use shell_fem::swatch::{Direction, StretchTest, SwatchConfig};
+use shell_fem::swatch::{StretchTest, SwatchConfig};
+use yarn_pattern::direction::Direction;
 
 fn stretch_test(c: &mut Criterion) {
     let mut group = c.benchmark_group("stretch_test_bias_s0.3");

@@ -28,6 +28,7 @@
 //! initial guess is an error.
 
 use std::time::Instant;
+use yarn_pattern::direction::Direction;
 
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -37,7 +38,7 @@ use crate::elements::BendingParams;
 use crate::fit::{Progress, lm_error};
 use crate::material::{InPlaneParams, Material};
 use crate::pear_loop::{PearLoop, PearLoopConfig};
-use crate::swatch::Direction;
+
 use solver::{LmBounds, LmEval, LmSettings, bounded_lm};
 
 /// One bending target: a pear-loop aspect ratio at a clamp distance.
@@ -439,56 +440,51 @@ pub fn read_bending_csv(path: &std::path::Path) -> Result<Vec<BendingTarget>, Sh
         line,
         problem,
     };
+    let records = crate::csv_io::records(&text, &file)?;
+    let Some((head, rows)) = records.split_first() else {
+        return Err(err(0, "no bending targets".into()));
+    };
+    let names: Vec<String> = head.fields.iter().map(|c| c.to_ascii_lowercase()).collect();
+    if names != ["direction", "d", "r"] {
+        return Err(err(
+            head.line,
+            format!(
+                "expected the header `direction,d,r`, found `{}`",
+                head.fields.join(",")
+            ),
+        ));
+    }
     let mut out = Vec::new();
-    let mut header = false;
-    for (i, raw) in text.lines().enumerate() {
-        let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let cols: Vec<&str> = line.split(',').map(str::trim).collect();
-        if !header {
-            let names: Vec<String> = cols.iter().map(|c| c.to_ascii_lowercase()).collect();
-            if names != ["direction", "d", "r"] {
-                return Err(err(
-                    i + 1,
-                    format!("expected the header `direction,d,r`, found `{line}`"),
-                ));
-            }
-            header = true;
-            continue;
-        }
+    for crate::csv_io::Record { line, fields: cols } in rows {
+        let line = *line;
         if cols.len() != 3 {
             return Err(err(
-                i + 1,
+                line,
                 format!("expected 3 columns, found {}", cols.len()),
             ));
         }
-        let direction = Direction::parse(cols[0])
-            .ok_or_else(|| err(i + 1, format!("unknown direction `{}`", cols[0])))?;
+        let direction = Direction::parse(&cols[0])
+            .ok_or_else(|| err(line, format!("unknown direction `{}`", cols[0])))?;
         let num = |c: &str, what: &str| -> Result<f64, ShellError> {
             let v: f64 = c
                 .parse()
-                .map_err(|_| err(i + 1, format!("{what} `{c}` is not a number")))?;
+                .map_err(|_| err(line, format!("{what} `{c}` is not a number")))?;
             if v.is_finite() && v > 0.0 {
                 Ok(v)
             } else {
-                Err(err(
-                    i + 1,
-                    format!("{what} must be finite and > 0, got {v}"),
-                ))
+                Err(err(line, format!("{what} must be finite and > 0, got {v}")))
             }
         };
-        let d = num(cols[1], "clamp distance d")?;
+        let d = num(&cols[1], "clamp distance d")?;
         if d > 0.05 {
             return Err(err(
-                i + 1,
+                line,
                 format!(
                     "clamp distance d = {d} m is implausible (metres expected, protocol 0.003 … 0.034)"
                 ),
             ));
         }
-        let ratio = num(cols[2], "ratio r")?;
+        let ratio = num(&cols[2], "ratio r")?;
         out.push(BendingTarget {
             direction,
             d,

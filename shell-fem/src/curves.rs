@@ -12,16 +12,16 @@
 //!
 //! **Bending.** `σ_κ = ∂Ψ_b/∂κ = 2 k_θ κ` (N, per unit length: moment per width).
 
+use crate::csv_io::CsvTable;
 use nalgebra::{Matrix2, Vector2};
 use serde::{Deserialize, Serialize};
 use solver::{Bracket, RootError, RootEval, RootSettings, find_root};
 use std::convert::Infallible;
-use std::fmt::Write as _;
+use yarn_pattern::direction::Direction;
 
 use crate::ShellError;
 use crate::elements::BendingParams;
 use crate::material::Material;
-use crate::swatch::Direction;
 
 /// One point of a uniform uniaxial curve.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -200,18 +200,30 @@ impl TargetCurves {
     /// CSV with columns `kind,direction,x,c,sigma` (`kind` = `stretch` with `x = s`, or
     /// `bending` with `x = κ` and empty `c`).
     pub fn to_csv(&self) -> String {
-        let mut s = String::from("kind,direction,x,c,sigma\n");
+        let mut t = CsvTable::new(&["kind", "direction", "x", "c", "sigma"]);
         for (d, pts) in &self.stretch {
             for p in pts {
-                let _ = writeln!(s, "stretch,{d},{},{},{}", p.s, p.c, p.sigma);
+                t.row([
+                    "stretch".into(),
+                    d.to_string(),
+                    p.s.to_string(),
+                    p.c.to_string(),
+                    p.sigma.to_string(),
+                ]);
             }
         }
         for (d, pts) in &self.bending {
             for p in pts {
-                let _ = writeln!(s, "bending,{d},{},,{}", p.kappa, p.sigma);
+                t.row([
+                    "bending".into(),
+                    d.to_string(),
+                    p.kappa.to_string(),
+                    String::new(),
+                    p.sigma.to_string(),
+                ]);
             }
         }
-        s
+        t.finish()
     }
 }
 

@@ -14,6 +14,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use yarn_pattern::direction::Direction;
 
 use serde::{Deserialize, Serialize};
 
@@ -23,9 +24,9 @@ use crate::fit::{
 };
 use crate::material::{InPlaneParams, Model};
 use crate::measurements::{
-    BinOptions, Measurement, read_direction_csv, read_stitch_csv, split_name,
+    BinOptions, Measurement, is_stitch_csv, read_direction_csv, read_stitch_csv, split_name,
 };
-use crate::swatch::{Direction, SwatchConfig};
+use crate::swatch::SwatchConfig;
 
 /// The measurements of one fabric.
 #[derive(Clone, Debug, PartialEq)]
@@ -34,19 +35,6 @@ pub struct Fabric {
     pub name: String,
     /// One measurement per direction, in [`Direction::ALL`] order.
     pub measurements: Vec<Measurement>,
-}
-
-/// Whether a file holds stitch-by-stitch data (its header names `axial_strain`).
-fn is_stitch_csv(path: &Path) -> Result<bool, ShellError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ShellError::Io {
-        file: path.display().to_string(),
-        source,
-    })?;
-    Ok(text
-        .lines()
-        .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with('#'))
-        .is_some_and(|l| l.to_ascii_lowercase().contains("axial_strain")))
 }
 
 /// Reads every `*.csv` in `dir` (sorted by name) and groups the files into fabrics (module

@@ -29,6 +29,7 @@
 //! initial guess is an error.
 
 use std::time::Instant;
+use yarn_pattern::direction::Direction;
 
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -39,7 +40,7 @@ use solver::{
 use crate::ShellError;
 use crate::material::{InPlaneParams, Material, Model};
 use crate::measurements::Measurement;
-use crate::swatch::{Direction, StretchTest, SwatchConfig};
+use crate::swatch::{StretchTest, SwatchConfig};
 
 /// One fit target: a stretch and the measured force and compression there.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -12,6 +12,7 @@
 //! | [`shell`] | triangle meshes (rectangle, uniform subdivision, hinges) and the assembled [`Shell`] as a [`solver::Problem`] |
 //! | [`swatch`] | the virtual stretch test (10 cm × 6 cm planar swatch, clamped or sliding ends): clamp force `f_s`, mid-length compression `c`, load stepping, adjoint sensitivities |
 //! | [`pear_loop`] | the pear-loop bending test on the 3-D shell (clamped ends pointing down, gravity, no contact): loop height, width and aspect ratio `r = h/p` against clamp distance |
+//! | [`csv_io`] | CSV records with line numbers for the readers and one table writer, through the `csv` crate |
 //! | [`measurements`] | readers for the stitch-by-stitch uniaxial CSV and the per-direction `(s, f_s, c)` schema; merging, loading branch, binning |
 //! | [`fabrics`] | a folder of measurements grouped into fabrics by file name; one fit per fabric and model, with errors at every bin and on a held-out stretch range |
 //! | [`fit`] | the in-plane fit of Eq. 2: bounded Levenberg–Marquardt on simulated-in-the-loop residuals with implicit-differentiation Jacobians |
@@ -83,6 +84,7 @@
 //!   sensitivities check that each equilibrium is stable (Cholesky of the exact Hessian).
 
 pub mod bending_fit;
+pub mod csv_io;
 pub mod curves;
 pub mod elements;
 pub mod fabrics;
@@ -96,7 +98,9 @@ pub mod swatch;
 pub use elements::{BendingParams, Hinge, MembraneTriangle};
 pub use material::{InPlaneParams, Material, Model};
 pub use shell::{Shell, ShellOptions, TriMesh};
-pub use swatch::{Clamp, Direction, Sensitivity, StretchPoint, StretchTest, SwatchConfig};
+pub use swatch::{Clamp, Sensitivity, StretchPoint, StretchTest, SwatchConfig};
+/// The test direction shared with `sim-periodic` (defined in `yarn-pattern`).
+pub use yarn_pattern::direction::Direction;
 
 /// Errors of the shell model, the virtual tests and the fit.
 #[derive(Debug, thiserror::Error)]

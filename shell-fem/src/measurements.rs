@@ -19,11 +19,12 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
+use yarn_pattern::direction::Direction;
 
 use serde::{Deserialize, Serialize};
 
 use crate::ShellError;
-use crate::swatch::Direction;
+use crate::csv_io::{Record, records};
 
 /// One measured (or binned) point.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -219,6 +220,17 @@ pub fn direction_from_name(path: &Path) -> Option<Direction> {
     Direction::ALL.into_iter().find(|d| stem.contains(d.name()))
 }
 
+/// Whether a file uses the stitch-by-stitch schema (its header names `axial_strain`) rather
+/// than the per-direction one.
+pub fn is_stitch_csv(path: &Path) -> Result<bool, ShellError> {
+    let records = records(&read(path)?, &path.display().to_string())?;
+    Ok(records.first().is_some_and(|h| {
+        h.fields
+            .iter()
+            .any(|f| f.eq_ignore_ascii_case("axial_strain"))
+    }))
+}
+
 /// Reads a stitch-by-stitch CSV file (see the module docs).
 pub fn read_stitch_csv(
     path: &Path,
@@ -240,40 +252,34 @@ pub fn parse_stitch_csv(
             "need ≥ 2 bins and a positive swatch width".into(),
         ));
     }
-    let mut header: Option<(usize, Vec<String>)> = None;
+    let records = records(text, file)?;
+    let Some((head, rows)) = records.split_first() else {
+        return Err(data_err(file, 0, "no header line"));
+    };
+    let cols: Vec<String> = head.fields.iter().map(|f| f.to_ascii_lowercase()).collect();
+    let find = |name: &str| cols.iter().position(|c| c == name);
+    let need = |name: &str| {
+        find(name).ok_or_else(|| {
+            data_err(
+                file,
+                head.line,
+                format!("header lacks column `{name}` (found {cols:?})"),
+            )
+        })
+    };
+    let (i_ax, i_tr, i_st) = (
+        need("axial_strain")?,
+        need("transverse_strain")?,
+        need("stress_n_per_mm")?,
+    );
+    let i_run = find("video");
     // Runs in order of first appearance: name → (axial, transverse, stress).
     let mut runs: Vec<(String, Vec<[f64; 3]>)> = Vec::new();
-    let (mut i_run, mut i_ax, mut i_tr, mut i_st) = (None, 0, 0, 0);
-    for (k, raw) in text.lines().enumerate() {
-        let line_no = k + 1;
-        let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        let Some((_, cols)) = &header else {
-            let cols: Vec<String> = fields.iter().map(|f| f.to_ascii_lowercase()).collect();
-            let find = |name: &str| cols.iter().position(|c| c == name);
-            let need = |name: &str| {
-                find(name).ok_or_else(|| {
-                    data_err(
-                        file,
-                        line_no,
-                        format!("header lacks column `{name}` (found {cols:?})"),
-                    )
-                })
-            };
-            i_ax = need("axial_strain")?;
-            i_tr = need("transverse_strain")?;
-            i_st = need("stress_n_per_mm")?;
-            i_run = find("video");
-            header = Some((line_no, cols.clone()));
-            continue;
-        };
+    for Record { line, fields } in rows {
         if fields.len() != cols.len() {
             return Err(data_err(
                 file,
-                line_no,
+                *line,
                 format!("expected {} fields, found {}", cols.len(), fields.len()),
             ));
         }
@@ -281,7 +287,7 @@ pub fn parse_stitch_csv(
             let v: f64 = fields[i].parse().map_err(|_| {
                 data_err(
                     file,
-                    line_no,
+                    *line,
                     format!("column `{}`: `{}` is not a number", cols[i], fields[i]),
                 )
             })?;
@@ -290,20 +296,17 @@ pub fn parse_stitch_csv(
             } else {
                 Err(data_err(
                     file,
-                    line_no,
+                    *line,
                     format!("column `{}` is not finite", cols[i]),
                 ))
             }
         };
         let row = [num(i_ax)?, num(i_tr)?, num(i_st)?];
-        let run = i_run.map_or("", |i| fields[i]).to_owned();
+        let run = i_run.map_or("", |i| fields[i].as_str()).to_owned();
         match runs.iter_mut().find(|(r, _)| *r == run) {
             Some((_, rows)) => rows.push(row),
             None => runs.push((run, vec![row])),
         }
-    }
-    if header.is_none() {
-        return Err(data_err(file, 0, "no header line"));
     }
     if runs.is_empty() {
         return Err(data_err(file, 0, "no data rows"));
@@ -369,27 +372,24 @@ pub fn read_direction_csv(path: &Path) -> Result<Vec<Measurement>, ShellError> {
 
 /// Parses per-direction CSV text; `file` names the source in errors.
 pub fn parse_direction_csv(text: &str, file: &str) -> Result<Vec<Measurement>, ShellError> {
+    let records = records(text, file)?;
+    let Some((head, rows)) = records.split_first() else {
+        return Err(data_err(file, 0, "no header line"));
+    };
+    let lower: Vec<String> = head.fields.iter().map(|x| x.to_ascii_lowercase()).collect();
+    if lower != ["direction", "s", "f_s", "c"] {
+        return Err(data_err(
+            file,
+            head.line,
+            format!(
+                "expected header `direction,s,f_s,c`, found `{}`",
+                head.fields.join(",")
+            ),
+        ));
+    }
     let mut by_dir: BTreeMap<Direction, Vec<(usize, MeasuredPoint)>> = BTreeMap::new();
-    let mut header = false;
-    for (k, raw) in text.lines().enumerate() {
-        let line_no = k + 1;
-        let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let f: Vec<&str> = line.split(',').map(str::trim).collect();
-        if !header {
-            let lower: Vec<String> = f.iter().map(|x| x.to_ascii_lowercase()).collect();
-            if lower != ["direction", "s", "f_s", "c"] {
-                return Err(data_err(
-                    file,
-                    line_no,
-                    format!("expected header `direction,s,f_s,c`, found `{line}`"),
-                ));
-            }
-            header = true;
-            continue;
-        }
+    for Record { line, fields: f } in rows {
+        let line_no = *line;
         if f.len() != 4 {
             return Err(data_err(
                 file,
@@ -397,7 +397,7 @@ pub fn parse_direction_csv(text: &str, file: &str) -> Result<Vec<Measurement>, S
                 format!("expected 4 fields, found {}", f.len()),
             ));
         }
-        let dir = Direction::parse(f[0]).ok_or_else(|| {
+        let dir = Direction::parse(&f[0]).ok_or_else(|| {
             data_err(
                 file,
                 line_no,
@@ -426,9 +426,6 @@ pub fn parse_direction_csv(text: &str, file: &str) -> Result<Vec<Measurement>, S
                 compression: v[2],
             },
         ));
-    }
-    if !header {
-        return Err(data_err(file, 0, "no header line"));
     }
     let mut out = Vec::new();
     for (direction, pts) in by_dir {

@@ -35,50 +35,6 @@ pub enum Clamp {
     Sliding,
 }
 
-/// Fabric test direction (seed 002 §4.3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub enum Direction {
-    /// 0°: along material x.
-    Weft,
-    /// 45°.
-    Bias,
-    /// 90°: along material y.
-    Warp,
-}
-
-impl Direction {
-    /// All three directions.
-    pub const ALL: [Direction; 3] = [Direction::Weft, Direction::Bias, Direction::Warp];
-
-    /// Angle of the pull direction from the weft (rad).
-    pub fn angle(self) -> f64 {
-        match self {
-            Direction::Weft => 0.0,
-            Direction::Bias => std::f64::consts::FRAC_PI_4,
-            Direction::Warp => std::f64::consts::FRAC_PI_2,
-        }
-    }
-
-    /// Lower-case name (`weft`, `bias`, `warp`).
-    pub fn name(self) -> &'static str {
-        match self {
-            Direction::Weft => "weft",
-            Direction::Bias => "bias",
-            Direction::Warp => "warp",
-        }
-    }
-
-    /// Parses `weft`/`x`/`0`, `bias`/`45`, `warp`/`y`/`90` (case-insensitive).
-    pub fn parse(s: &str) -> Option<Self> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "weft" | "x" | "0" => Some(Direction::Weft),
-            "bias" | "45" => Some(Direction::Bias),
-            "warp" | "y" | "90" => Some(Direction::Warp),
-            _ => None,
-        }
-    }
-}
-
 /// Why one load step of [`StretchTest::solve_to`] failed (for [`solver::march`]).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]

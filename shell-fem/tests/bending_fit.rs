@@ -8,7 +8,7 @@ use shell_fem::bending_fit::{
 use shell_fem::elements::BendingParams;
 use shell_fem::material::{InPlaneParams, Material};
 use shell_fem::pear_loop::{PearLoop, PearLoopConfig};
-use shell_fem::swatch::Direction;
+use yarn_pattern::direction::Direction;
 
 /// A coarse strip (one cell across) keeps the tests fast.
 fn coarse() -> PearLoopConfig {

@@ -1,11 +1,11 @@
 //! Grouping a folder of real measurements into fabrics, and the paper's error metric.
 
 use std::path::PathBuf;
+use yarn_pattern::direction::Direction;
 
 use shell_fem::fabrics::discover;
 use shell_fem::fit::{ErrorReport, Target};
 use shell_fem::measurements::BinOptions;
-use shell_fem::swatch::Direction;
 
 fn data_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/measurements")

@@ -3,7 +3,8 @@
 
 use shell_fem::fit::{FitConfig, Simulator, Target, fit};
 use shell_fem::material::{InPlaneParams, Model};
-use shell_fem::swatch::{Direction, SwatchConfig};
+use shell_fem::swatch::SwatchConfig;
+use yarn_pattern::direction::Direction;
 
 fn coarse() -> SwatchConfig {
     SwatchConfig {

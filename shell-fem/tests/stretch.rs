@@ -4,7 +4,8 @@
 
 use shell_fem::curves::uniaxial_curve;
 use shell_fem::material::{InPlaneParams, Material};
-use shell_fem::swatch::{Clamp, Direction, StretchTest, SwatchConfig};
+use shell_fem::swatch::{Clamp, StretchTest, SwatchConfig};
+use yarn_pattern::direction::Direction;
 
 fn material() -> Material {
     Material::augmented(InPlaneParams::example())

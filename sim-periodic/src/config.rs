@@ -37,10 +37,10 @@
 //! ```
 
 use std::path::{Path, PathBuf};
+use yarn_pattern::direction::Direction;
 
 use serde::Deserialize;
 
-use crate::curves::Direction;
 use crate::database::uniform_axis;
 use crate::periodic::{EquilibriumSettings, YarnModel};
 use rod::contact::Simpson;

@@ -21,41 +21,8 @@ use crate::periodic::{
 };
 use nalgebra::Vector2;
 use solver::{SecantError, SecantEval, SecantSettings, StepError, secant};
+use yarn_pattern::direction::Direction;
 use yarn_pattern::tile::Tile;
-
-/// Named fabric directions.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Direction {
-    /// Material x (0°).
-    Weft,
-    /// 45°.
-    Bias,
-    /// Material y (90°).
-    Warp,
-}
-
-impl Direction {
-    /// All three, in the usual order.
-    pub const ALL: [Direction; 3] = [Direction::Weft, Direction::Bias, Direction::Warp];
-
-    /// Angle from material x (rad).
-    pub fn angle(self) -> f64 {
-        match self {
-            Direction::Weft => 0.0,
-            Direction::Bias => std::f64::consts::FRAC_PI_4,
-            Direction::Warp => std::f64::consts::FRAC_PI_2,
-        }
-    }
-
-    /// Lower-case name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Direction::Weft => "weft",
-            Direction::Bias => "bias",
-            Direction::Warp => "warp",
-        }
-    }
-}
 
 /// Settings of a curve.
 #[derive(Clone, Debug)]

@@ -1,11 +1,12 @@
 //! Displacement database generation and uniaxial curves on the real stockinette tile.
 
 use sim_periodic::coarse::{Coarse, Strain};
-use sim_periodic::curves::{CurveSettings, Direction, directional_stress, uniaxial_curve};
+use sim_periodic::curves::{CurveSettings, directional_stress, uniaxial_curve};
 use sim_periodic::database::{
     DatabaseSettings, GenerationError, generate, relax_period, relax_reference,
 };
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel, solve_equilibrium};
+use yarn_pattern::direction::Direction;
 use yarn_pattern::tile::Tile;
 
 mod common;

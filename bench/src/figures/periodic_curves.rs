@@ -3,9 +3,10 @@
 //! (seed 002 §7.1; the yarn-level counterpart of the shell's target curves).
 
 use rayon::prelude::*;
-use sim_periodic::curves::{CurveSettings, Direction};
+use sim_periodic::curves::CurveSettings;
 use sim_periodic::patterns::Pattern;
 use sim_periodic::periodic::YarnModel;
+use yarn_pattern::direction::Direction;
 
 use crate::plot::{LineChart, Series, save_side_by_side};
 use crate::studies::periodic::{curve, pattern_tile, real_stockinette, stress_free};

@@ -3,8 +3,9 @@
 
 use nalgebra::Vector3;
 use sim_periodic::coarse::Coarse;
-use sim_periodic::curves::{CurveSettings, Direction};
+use sim_periodic::curves::CurveSettings;
 use sim_periodic::periodic::{YarnModel, solve_equilibrium};
+use yarn_pattern::direction::Direction;
 use yarn_pattern::tile::Tile;
 
 use crate::plot::{LineChart, Series, save_side_by_side};

@@ -3,9 +3,10 @@
 //! discretization, the contact quadrature and the Newton tolerance are swept.
 
 use std::time::Instant;
+use yarn_pattern::direction::Direction;
 
 use rod::contact::Simpson;
-use sim_periodic::curves::{CurveSettings, Direction};
+use sim_periodic::curves::CurveSettings;
 use sim_periodic::patterns::Pattern;
 use sim_periodic::periodic::YarnModel;
 use yarn_pattern::tile::Tile;

@@ -13,7 +13,7 @@ use shell_fem::bending_fit::{
 use shell_fem::elements::BendingParams;
 use shell_fem::material::{InPlaneParams, Material};
 use shell_fem::pear_loop::PearLoopConfig;
-use shell_fem::swatch::Direction;
+use yarn_pattern::direction::Direction;
 
 use crate::plot::{LineChart, Series};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};

@@ -3,11 +3,12 @@
 //! test), force and compression against stretch, with the fit errors in the legend.
 
 use std::path::PathBuf;
+use yarn_pattern::direction::Direction;
 
 use shell_fem::fit::{FitConfig, Weighting, fit, initial_guess, targets};
 use shell_fem::material::{Material, Model};
 use shell_fem::measurements::{BinOptions, Measurement, read_stitch_csv};
-use shell_fem::swatch::{Direction, StretchTest, SwatchConfig};
+use shell_fem::swatch::{StretchTest, SwatchConfig};
 
 use crate::plot::{LineChart, Series, save_side_by_side};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};

@@ -4,12 +4,13 @@
 //! and fitted against measured curves for every fabric.
 
 use std::path::PathBuf;
+use yarn_pattern::direction::Direction;
 
 use shell_fem::fabrics::{FabricFit, FabricFitOptions, discover, fit_fabric, holdout};
 use shell_fem::fit::Target;
 use shell_fem::material::Model;
 use shell_fem::measurements::BinOptions;
-use shell_fem::swatch::{Direction, SwatchConfig};
+use shell_fem::swatch::SwatchConfig;
 
 use crate::plot::{LineChart, Series, save_grid, save_side_by_side};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};

@@ -5,7 +5,8 @@
 use shell_fem::curves::uniaxial_curve;
 use shell_fem::fit::{FitConfig, Weighting, fit, initial_guess, targets};
 use shell_fem::material::{Material, Model};
-use shell_fem::swatch::{Direction, SwatchConfig};
+use shell_fem::swatch::SwatchConfig;
+use yarn_pattern::direction::Direction;
 
 use crate::figures::shell_fit::acrylic_measurements;
 use crate::plot::{LineChart, Series, save_side_by_side};

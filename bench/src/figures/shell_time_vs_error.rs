@@ -3,10 +3,11 @@
 //! tolerance are swept (Pareto plot).
 
 use std::time::Instant;
+use yarn_pattern::direction::Direction;
 
 use shell_fem::fit::{FitConfig, Weighting, fit, initial_guess, targets};
 use shell_fem::material::{InPlaneParams, Material};
-use shell_fem::swatch::{Direction, StretchPoint, StretchTest, SwatchConfig};
+use shell_fem::swatch::{StretchPoint, StretchTest, SwatchConfig};
 
 use crate::figures::shell_fit::acrylic_measurements;
 use crate::plot::{LineChart, Series};

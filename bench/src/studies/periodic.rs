@@ -2,10 +2,11 @@
 //! procedural patterns), each relaxed to a stress-free period, and their uniaxial curves.
 
 use anyhow::Context;
-use sim_periodic::curves::{CurvePoint, CurveSettings, Direction, uniaxial_curve};
+use sim_periodic::curves::{CurvePoint, CurveSettings, uniaxial_curve};
 use sim_periodic::database::relax_period;
 use sim_periodic::patterns::{Pattern, RelaxSettings, relax};
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel};
+use yarn_pattern::direction::Direction;
 use yarn_pattern::tile::Tile;
 
 /// The real stockinette tile shipped with the tests (MADYPG, see its licence).

@@ -11,6 +11,7 @@
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+use yarn_pattern::direction::Direction;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -21,6 +22,7 @@ use shell_fem::bending_fit::{
     BendingFitConfig, BendingFitResult, BendingTarget, DEFAULT_INITIAL, fit_bending,
     read_bending_csv, unidentified,
 };
+use shell_fem::csv_io::CsvTable;
 use shell_fem::curves::TargetCurves;
 use shell_fem::fabrics::{FabricFitOptions, discover, fit_fabric, holdout};
 use shell_fem::fit::{
@@ -28,10 +30,11 @@ use shell_fem::fit::{
 };
 use shell_fem::material::{InPlaneParams, Material, Model};
 use shell_fem::measurements::{
-    BinOptions, Measurement, direction_from_name, read_direction_csv, read_stitch_csv,
+    BinOptions, Measurement, direction_from_name, is_stitch_csv, read_direction_csv,
+    read_stitch_csv,
 };
 use shell_fem::pear_loop::PearLoopConfig;
-use shell_fem::swatch::{Direction, SwatchConfig};
+use shell_fem::swatch::SwatchConfig;
 
 #[derive(Parser)]
 #[command(
@@ -207,13 +210,7 @@ fn load(spec: &str, bins: &BinOptions) -> Result<Vec<Measurement>> {
         ),
         None => (None, Path::new(spec)),
     };
-    let head = std::fs::read_to_string(path)
-        .with_context(|| format!("reading {}", path.display()))?
-        .lines()
-        .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
-        .unwrap_or_default()
-        .to_ascii_lowercase();
-    if head.contains("axial_strain") {
+    if is_stitch_csv(path)? {
         let d = dir.or_else(|| direction_from_name(path)).with_context(|| {
             format!(
                 "cannot tell the direction of {} from its name (expected e.g. `…-x.csv`, \
@@ -292,11 +289,16 @@ fn run_bending_fit(
         &out.join("bending.json"),
         &serde_json::to_string_pretty(&j)?,
     )?;
-    let mut table = String::from("direction,d,r_measured,r_fit\n");
+    let mut table = CsvTable::new(&["direction", "d", "r_measured", "r_fit"]);
     for (t, s) in r.targets.iter().zip(&r.simulated) {
-        table += &format!("{},{},{},{}\n", t.direction.name(), t.d, t.ratio, s.ratio);
+        table.row([
+            t.direction.name().to_string(),
+            t.d.to_string(),
+            t.ratio.to_string(),
+            s.ratio.to_string(),
+        ]);
     }
-    write(&out.join("bending_fit.csv"), &table)?;
+    write(&out.join("bending_fit.csv"), &table.finish())?;
     println!(
         "bending: fitted {:?}, mean relative ratio error {:.2} % ({} LM iterations, {:.1} s; {})",
         r.params,
@@ -390,20 +392,25 @@ fn run_fit(
         &out.join("params.json"),
         &serde_json::to_string_pretty(&params_json)?,
     )?;
-    let mut table =
-        String::from("direction,s,force_measured,force_fit,compression_measured,compression_fit\n");
+    let mut table = CsvTable::new(&[
+        "direction",
+        "s",
+        "force_measured",
+        "force_fit",
+        "compression_measured",
+        "compression_fit",
+    ]);
     for (t, s) in result.targets.iter().zip(&result.simulated) {
-        table += &format!(
-            "{},{},{},{},{},{}\n",
-            t.direction.name(),
-            t.s,
-            t.force,
-            s.force,
-            t.compression,
-            s.compression
-        );
+        table.row([
+            t.direction.name().to_string(),
+            t.s.to_string(),
+            t.force.to_string(),
+            s.force.to_string(),
+            t.compression.to_string(),
+            s.compression.to_string(),
+        ]);
     }
-    write(&out.join("fit.csv"), &table)?;
+    write(&out.join("fit.csv"), &table.finish())?;
     let curves_json = serde_json::to_value(&curves)?;
     ensure_finite(&curves_json, "target curves")?;
     write(
@@ -475,10 +482,20 @@ fn run_fit_all(dir: &Path, out: &Path, args: &FitAllArgs) -> Result<()> {
     bar.set_style(ProgressStyle::with_template(
         "{spinner} fit {pos}/{len} {msg} [{elapsed}]",
     )?);
-    let mut table = String::from(
-        "fabric,model,direction,force_error,compression_error,force_rel_error,compression_rel_error,\
-         bins_force_error,bins_compression_error,holdout_force_error,holdout_compression_error,seconds\n",
-    );
+    let mut table = CsvTable::new(&[
+        "fabric",
+        "model",
+        "direction",
+        "force_error",
+        "compression_error",
+        "force_rel_error",
+        "compression_rel_error",
+        "bins_force_error",
+        "bins_compression_error",
+        "holdout_force_error",
+        "holdout_compression_error",
+        "seconds",
+    ]);
     let mut fits = Vec::new();
     for fabric in &fabrics {
         for &m in &args.models {
@@ -499,35 +516,36 @@ fn run_fit_all(dir: &Path, out: &Path, args: &FitAllArgs) -> Result<()> {
                 None
             };
             let e = &f.fit.errors;
-            let nan = f64::NAN;
-            let h = |get: fn(&ErrorReport) -> f64| held.as_ref().map_or(nan, |h| get(&h.held_out));
-            table += &format!(
-                "{},{},all,{},{},{},{},{},{},{},{},{}\n",
-                fabric.name,
-                m.name(),
-                e.force_error,
-                e.compression_error,
-                e.force_rel_error,
-                e.compression_rel_error,
-                f.all_bins.force_error,
-                f.all_bins.compression_error,
+            let h = |get: fn(&ErrorReport) -> f64| {
+                held.as_ref()
+                    .map_or(String::new(), |h| get(&h.held_out).to_string())
+            };
+            let head = [fabric.name.clone(), m.name().to_string()];
+            table.row(head.iter().cloned().chain([
+                "all".to_string(),
+                e.force_error.to_string(),
+                e.compression_error.to_string(),
+                e.force_rel_error.to_string(),
+                e.compression_rel_error.to_string(),
+                f.all_bins.force_error.to_string(),
+                f.all_bins.compression_error.to_string(),
                 h(|r| r.force_error),
                 h(|r| r.compression_error),
-                f.fit.seconds
-            );
+                f.fit.seconds.to_string(),
+            ]));
             for (d, b) in e.directions.iter().zip(&f.all_bins.directions) {
-                table += &format!(
-                    "{},{},{},{},{},{},{},{},{},,,\n",
-                    fabric.name,
-                    m.name(),
-                    d.direction.name(),
-                    d.force_error,
-                    d.compression_error,
-                    d.force_rel_error,
-                    d.compression_rel_error,
-                    b.force_error,
-                    b.compression_error,
-                );
+                table.row(head.iter().cloned().chain([
+                    d.direction.name().to_string(),
+                    d.force_error.to_string(),
+                    d.compression_error.to_string(),
+                    d.force_rel_error.to_string(),
+                    d.compression_rel_error.to_string(),
+                    b.force_error.to_string(),
+                    b.compression_error.to_string(),
+                    String::new(),
+                    String::new(),
+                    String::new(),
+                ]));
             }
             let material = Material {
                 params: f.fit.params,
@@ -566,7 +584,7 @@ fn run_fit_all(dir: &Path, out: &Path, args: &FitAllArgs) -> Result<()> {
         }
     }
     bar.finish_and_clear();
-    write(&out.join("summary.csv"), &table)?;
+    write(&out.join("summary.csv"), &table.finish())?;
     let j = serde_json::Value::Array(fits);
     write(&out.join("fits.json"), &serde_json::to_string_pretty(&j)?)?;
     write(
