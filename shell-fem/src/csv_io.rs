@@ -25,23 +25,25 @@ pub fn records(text: &str, file: &str) -> Result<Vec<Record>, ShellError> {
         .from_reader(text.as_bytes());
     // A record's position is where the reader started looking for it, before any comment or
     // blank lines it skipped (and its own line count skips those); find the record's line
-    // from the byte offset instead.
-    let line_at = |p: Option<&csv::Position>| {
-        p.map_or(0, |p| {
-            let start = (p.byte() as usize).min(text.len());
-            let mut line = 1 + text.as_bytes()[..start]
-                .iter()
-                .filter(|&&b| b == b'\n')
-                .count();
-            for l in text[start..].lines() {
-                let l = l.trim();
-                if !l.is_empty() && !l.starts_with('#') {
-                    break;
-                }
-                line += 1;
+    // from the byte offset instead, counting newlines incrementally (offsets only grow).
+    let mut counted = (0usize, 1usize); // (byte offset, line number there)
+    let mut line_at = |p: Option<&csv::Position>| {
+        let Some(p) = p else { return 0 };
+        let start = (p.byte() as usize).clamp(counted.0, text.len());
+        counted.1 += text.as_bytes()[counted.0..start]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        counted.0 = start;
+        let mut line = counted.1;
+        for l in text[start..].lines() {
+            let l = l.trim();
+            if !l.is_empty() && !l.starts_with('#') {
+                break;
             }
-            line
-        })
+            line += 1;
+        }
+        line
     };
     let mut out = Vec::new();
     for r in reader.records() {

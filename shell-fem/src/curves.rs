@@ -21,7 +21,7 @@ use yarn_pattern::direction::Direction;
 
 use crate::ShellError;
 use crate::elements::BendingParams;
-use crate::material::Material;
+use crate::material::{InPlaneParams, Material};
 
 /// One point of a uniform uniaxial curve.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -145,6 +145,78 @@ pub fn uniaxial_curve(
         .collect()
 }
 
+/// A point of the homogeneous uniaxial test and its parameter sensitivities.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UniaxialSensitivity {
+    /// The point (Eq. 3: zero orthogonal stress).
+    pub point: UniaxialPoint,
+    /// `dc/dp_k` (order of [`InPlaneParams::to_array`]).
+    pub compression: [f64; InPlaneParams::LEN],
+    /// `dσ_s/dp_k` (N/m per unit parameter).
+    pub sigma: [f64; InPlaneParams::LEN],
+}
+
+/// [`uniaxial_curve`] at one stretch, with the total derivatives of `c` and `σ_s` in the
+/// material parameters by implicit differentiation of the zero-orthogonal-stress condition.
+///
+/// With `F = (1+s) u uᵀ + w v vᵀ`, `w = 1 − c`, `C = FᵀF = (1+s)² u uᵀ + w² v vᵀ`, so in
+/// `c = (C₁₁, C₂₂, C₁₂)` the derivatives `C_s = 2(1+s)(u₁², u₂², u₁u₂)` and
+/// `C_w = 2w(v₁², v₂², v₁v₂)` are constant directions. The condition `g = ∂Ψ/∂w = ∇Ψ·C_w = 0`
+/// gives `dw/dp = −g_p / g_w` with `g_w = C_wᵀ ∇²Ψ C_w + ∇Ψ·C_w/w` and `g_p = ∂(∇Ψ)/∂p · C_w`;
+/// `σ_s = ∂Ψ/∂s = ∇Ψ·C_s` then changes by `∂(∇Ψ)/∂p · C_s + (C_sᵀ ∇²Ψ C_w) dw/dp`.
+pub fn uniaxial_sensitivity(
+    m: &Material,
+    s: f64,
+    angle: f64,
+) -> Result<UniaxialSensitivity, ShellError> {
+    let c = uniaxial_compression(m, s, angle)?;
+    let w = 1.0 - c;
+    let (sn, cs) = angle.sin_cos();
+    let (u, v) = ([cs, sn], [-sn, cs]);
+    let dir = |a: [f64; 2], scale: f64| {
+        [
+            scale * a[0] * a[0],
+            scale * a[1] * a[1],
+            scale * a[0] * a[1],
+        ]
+    };
+    let c_s = dir(u, 2.0 * (1.0 + s));
+    let c_w = dir(v, 2.0 * w);
+    let cg = [
+        (1.0 + s).powi(2) * u[0] * u[0] + w * w * v[0] * v[0],
+        (1.0 + s).powi(2) * u[1] * u[1] + w * w * v[1] * v[1],
+        (1.0 + s).powi(2) * u[0] * u[1] + w * w * v[0] * v[1],
+    ];
+    let e = m.eval_c(cg);
+    let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let quad = |a: &[f64; 3], b: &[f64; 3]| {
+        (0..3)
+            .map(|i| (0..3).map(|j| a[i] * e.hess[i][j] * b[j]).sum::<f64>())
+            .sum::<f64>()
+    };
+    let sigma = dot(&e.grad, &c_s);
+    let g_w = quad(&c_w, &c_w) + dot(&e.grad, &c_w) / w;
+    let sigma_w = quad(&c_s, &c_w);
+    if !(sigma.is_finite() && g_w.is_finite() && g_w > 0.0) {
+        return Err(ShellError::Numerical(format!(
+            "uniaxial test at s = {s}: compression c = {c} is not a stable minimum \
+             (σ_s = {sigma}, ∂²Ψ/∂w² = {g_w})"
+        )));
+    }
+    let mut out = UniaxialSensitivity {
+        point: UniaxialPoint { s, c, sigma },
+        compression: [0.0; InPlaneParams::LEN],
+        sigma: [0.0; InPlaneParams::LEN],
+    };
+    for k in 0..InPlaneParams::LEN {
+        let d = m.eval_c_dparam(cg, k);
+        let dw = -dot(&d, &c_w) / g_w;
+        out.compression[k] = -dw;
+        out.sigma[k] = dot(&d, &c_s) + sigma_w * dw;
+    }
+    Ok(out)
+}
+
 /// `{κ, σ_κ = 2 k_θ κ}` for the bending stiffness of rest edges along `dir` (Eq. 4 read as a
 /// continuum law; `κ` in the hinge metric `3θ/H`, which is 3× the true curvature of an aligned
 /// cylinder: see the crate docs, "Hinge curvature normalization").
@@ -230,7 +302,7 @@ impl TargetCurves {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::InPlaneParams;
+    use crate::material::Model;
 
     fn coupled() -> InPlaneParams {
         InPlaneParams {
@@ -318,6 +390,56 @@ mod tests {
         let fd = (psi(0.4 + h) - psi(0.4 - h)) / (2.0 * h);
         let sigma = uniaxial_curve(&m, angle, &[0.4]).unwrap()[0].sigma;
         assert!((fd - sigma).abs() <= 1e-6 * sigma.abs(), "{fd} vs {sigma}");
+    }
+
+    #[test]
+    fn uniaxial_sensitivities_match_finite_differences() {
+        let params = InPlaneParams {
+            bx: 3.0,
+            by: 6.0,
+            cx: 2.0,
+            cy: 4.0,
+            ..coupled()
+        };
+        for model in Model::ALL {
+            for d in Direction::ALL {
+                for s in [0.05, 0.3] {
+                    let m = Material { params, model };
+                    let u = uniaxial_sensitivity(&m, s, d.angle()).unwrap();
+                    for k in (0..InPlaneParams::LEN).filter(|&k| model.uses(k)) {
+                        let at = |delta: f64| {
+                            let mut q = params.to_array();
+                            q[k] += delta;
+                            let m = Material {
+                                params: InPlaneParams::from_array(q),
+                                model,
+                            };
+                            let p = uniaxial_curve(&m, d.angle(), &[s]).unwrap()[0];
+                            (p.c, p.sigma)
+                        };
+                        let h = 1e-6 * params.to_array()[k].abs().max(1.0);
+                        let ((c1, s1), (c0, s0)) = (at(h), at(-h));
+                        let (dc, ds) = ((c1 - c0) / (2.0 * h), (s1 - s0) / (2.0 * h));
+                        // Relative to the derivative, or to the value's change under a
+                        // relative parameter change (for derivatives near zero).
+                        let pk = params.to_array()[k].abs().max(1.0);
+                        let tol = |fd: f64, value: f64| 1e-5 * fd.abs() + 1e-7 * value / pk;
+                        assert!(
+                            (u.compression[k] - dc).abs() <= tol(dc, 1.0),
+                            "{model:?} {d:?} s={s} dc/d{}: {} vs FD {dc}",
+                            InPlaneParams::NAMES[k],
+                            u.compression[k]
+                        );
+                        assert!(
+                            (u.sigma[k] - ds).abs() <= tol(ds, u.point.sigma.abs()),
+                            "{model:?} {d:?} s={s} dσ/d{}: {} vs FD {ds}",
+                            InPlaneParams::NAMES[k],
+                            u.sigma[k]
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -38,6 +38,7 @@ use solver::{
 };
 
 use crate::ShellError;
+use crate::curves::uniaxial_sensitivity;
 use crate::material::{InPlaneParams, Material, Model};
 use crate::measurements::Measurement;
 use crate::swatch::{StretchTest, SwatchConfig};
@@ -104,6 +105,33 @@ impl FitConfig {
     }
 }
 
+/// The virtual test that maps material parameters to the force and compression of a target.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum VirtualTest {
+    /// The paper's (§4.3): the clamped swatch of [`SwatchConfig`] simulated to equilibrium;
+    /// `s` is the clamp stretch, `c` the contraction of the swatch's mid-length width.
+    #[default]
+    Swatch,
+    /// A homogeneous uniaxial-stress state (Eq. 3 kinematics, zero orthogonal stress):
+    /// `c` and `f_s = w̄ σ_s` of the material point itself ([`uniaxial_sensitivity`]). The
+    /// model for strains measured locally on the specimen (tracked stitches away from the
+    /// clamps), where the clamps' restraint of the width does not reach; no FEM solve.
+    Uniaxial,
+}
+
+impl VirtualTest {
+    /// Both tests.
+    pub const ALL: [VirtualTest; 2] = [VirtualTest::Swatch, VirtualTest::Uniaxial];
+
+    /// Lower-case name (`swatch`, `uniaxial`).
+    pub fn name(self) -> &'static str {
+        match self {
+            VirtualTest::Swatch => "swatch",
+            VirtualTest::Uniaxial => "uniaxial",
+        }
+    }
+}
+
 /// Fit settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FitConfig {
@@ -113,7 +141,10 @@ pub struct FitConfig {
     /// leaves it unidentifiable). Default none. Parameters the model does not use are always
     /// held.
     pub fixed: [bool; InPlaneParams::LEN],
-    /// Swatch of the virtual tests.
+    /// The virtual test. Default [`VirtualTest::Swatch`] (the paper's).
+    pub test: VirtualTest,
+    /// Swatch of the virtual tests (for [`VirtualTest::Uniaxial`] only its width, which
+    /// turns stress into force).
     pub swatch: SwatchConfig,
     /// Material model fitted. Default [`Model::Augmented`].
     pub model: Model,
@@ -134,6 +165,7 @@ pub struct FitConfig {
 impl Default for FitConfig {
     fn default() -> Self {
         Self {
+            test: VirtualTest::Swatch,
             swatch: SwatchConfig::default(),
             weighting: Weighting::DirectionMean,
             fixed: [false; InPlaneParams::LEN],
@@ -295,16 +327,35 @@ struct Evaluation {
 
 /// The simulator that maps parameters to simulated targets (and their sensitivities).
 pub struct Simulator {
+    /// One stretch test per direction ([`VirtualTest::Swatch`]; empty for
+    /// [`VirtualTest::Uniaxial`]).
     dirs: Vec<DirectionSim>,
     n_targets: usize,
     model: Model,
+    test: VirtualTest,
+    /// Swatch width `w̄` (m).
+    width: f64,
 }
 
 impl Simulator {
-    /// One stretch test per direction present in `targets`.
-    pub fn new(cfg: &SwatchConfig, model: Model, targets: &[Target]) -> Result<Self, ShellError> {
+    /// One `test` per direction present in `targets`.
+    pub fn new(
+        test: VirtualTest,
+        cfg: &SwatchConfig,
+        model: Model,
+        targets: &[Target],
+    ) -> Result<Self, ShellError> {
+        if !(cfg.width > 0.0 && cfg.width.is_finite()) {
+            return Err(ShellError::InvalidInput(format!(
+                "swatch width must be positive, got {}",
+                cfg.width
+            )));
+        }
         let mut dirs = Vec::new();
         for d in Direction::ALL {
+            if test == VirtualTest::Uniaxial {
+                break;
+            }
             let mut idx: Vec<usize> = (0..targets.len())
                 .filter(|&i| targets[i].direction == d)
                 .collect();
@@ -326,6 +377,35 @@ impl Simulator {
             dirs,
             n_targets: targets.len(),
             model,
+            test,
+            width: cfg.width,
+        })
+    }
+
+    /// [`VirtualTest::Uniaxial`]: every target from its own material point.
+    fn evaluate_uniaxial(
+        &self,
+        p: &InPlaneParams,
+        targets: &[Target],
+        with_jac: bool,
+    ) -> Result<Evaluation, ShellError> {
+        let material = Material {
+            params: *p,
+            model: self.model,
+        };
+        let mut sim = Vec::with_capacity(targets.len());
+        let mut jac = Vec::with_capacity(if with_jac { targets.len() } else { 0 });
+        for t in targets {
+            let u = uniaxial_sensitivity(&material, t.s, t.direction.angle())?;
+            sim.push((self.width * u.point.sigma, u.point.c));
+            if with_jac {
+                jac.push((u.sigma.map(|d| self.width * d), u.compression));
+            }
+        }
+        Ok(Evaluation {
+            sim,
+            jac: with_jac.then_some(jac),
+            states: Vec::new(),
         })
     }
 
@@ -335,6 +415,9 @@ impl Simulator {
         targets: &[Target],
         with_jac: bool,
     ) -> Result<Evaluation, ShellError> {
+        if self.test == VirtualTest::Uniaxial {
+            return self.evaluate_uniaxial(p, targets, with_jac);
+        }
         let mut sim = vec![(0.0, 0.0); self.n_targets];
         let mut jac = with_jac
             .then(|| vec![([0.0; InPlaneParams::LEN], [0.0; InPlaneParams::LEN]); self.n_targets]);
@@ -582,7 +665,7 @@ pub fn fit(
             "non-finite fit target {t:?}"
         )));
     }
-    let sim = std::cell::RefCell::new(Simulator::new(&cfg.swatch, cfg.model, targets)?);
+    let sim = std::cell::RefCell::new(Simulator::new(cfg.test, &cfg.swatch, cfg.model, targets)?);
     let w = weights(targets, cfg.weighting);
     let m = 2 * targets.len();
     let residuals = |e: &[(f64, f64)]| -> DVector<f64> {

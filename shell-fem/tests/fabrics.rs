@@ -107,3 +107,29 @@ fn paper_metric_is_relative_to_the_mean_measured_datum() {
     assert!(close(e.force_error, 0.5 * (0.25 + 0.05)));
     assert!(close(e.compression_error, 0.5 * 0.02 / 0.21));
 }
+
+#[test]
+fn stiffening_model_through_the_uniaxial_test_fits_every_shared_fabric_within_twelve_percent() {
+    // The goal, as a regression check on the real data: paper-metric force and
+    // compression error ≤ 12 % at the targets, and at every measured bin (mostly between
+    // targets, never fitted).
+    use shell_fem::fabrics::{FabricFitOptions, fit_fabric};
+    use shell_fem::fit::VirtualTest;
+    use shell_fem::material::Model;
+    let opts = FabricFitOptions {
+        test: VirtualTest::Uniaxial,
+        ..FabricFitOptions::default()
+    };
+    for fabric in discover(&data_dir(), &BinOptions::default()).unwrap() {
+        let f = fit_fabric(&fabric, Model::Stiffening, &opts).unwrap();
+        for (what, e) in [("targets", &f.fit.errors), ("all bins", &f.all_bins)] {
+            assert!(
+                e.force_error <= 0.12 && e.compression_error <= 0.12,
+                "{} ({what}): force {:.2} %, compression {:.2} %",
+                fabric.name,
+                100.0 * e.force_error,
+                100.0 * e.compression_error
+            );
+        }
+    }
+}

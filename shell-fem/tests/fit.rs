@@ -1,9 +1,9 @@
 //! The in-plane fit (Eq. 2): identifiability on virtual data from known parameters, and
 //! behaviour with missing directions.
 
-use shell_fem::fit::{FitConfig, Simulator, Target, fit};
+use shell_fem::fit::{FitConfig, Simulator, Target, VirtualTest, fit};
 use shell_fem::material::{InPlaneParams, Model};
-use shell_fem::swatch::SwatchConfig;
+use shell_fem::swatch::{Clamp, SwatchConfig};
 use yarn_pattern::direction::Direction;
 
 fn coarse() -> SwatchConfig {
@@ -51,6 +51,16 @@ fn virtual_targets_of(
     dirs: &[(Direction, f64)],
     cfg: &SwatchConfig,
 ) -> Vec<Target> {
+    virtual_targets_with(VirtualTest::Swatch, model, truth, dirs, cfg)
+}
+
+fn virtual_targets_with(
+    test: VirtualTest,
+    model: Model,
+    truth: &InPlaneParams,
+    dirs: &[(Direction, f64)],
+    cfg: &SwatchConfig,
+) -> Vec<Target> {
     let mut targets: Vec<Target> = dirs
         .iter()
         .flat_map(|&(d, s_max)| {
@@ -62,7 +72,7 @@ fn virtual_targets_of(
             })
         })
         .collect();
-    let mut sim = Simulator::new(cfg, model, &targets).unwrap();
+    let mut sim = Simulator::new(test, cfg, model, &targets).unwrap();
     let values = sim.simulate(truth, &targets).unwrap();
     for (t, (f, c)) in targets.iter_mut().zip(values) {
         t.force = f;
@@ -102,18 +112,84 @@ fn fit_recovers_known_parameters_within_one_percent() {
 fn fit_recovers_known_stiffening_parameters() {
     // The stiffening model through the same adjoint fit: the rates' sensitivities are the
     // closed-form parameter derivatives, so LM must walk back to the truth.
-    let truth = InPlaneParams {
-        bx: 3.0,
-        by: 6.0,
-        cx: 2.0,
-        cy: 4.0,
-        ..InPlaneParams::example()
-    };
+    let truth = stiffening_truth();
     let cfg = FitConfig {
         swatch: coarse(),
         ..FitConfig::for_model(Model::Stiffening)
     };
     let targets = virtual_targets_of(Model::Stiffening, &truth, &ALL_DIRECTIONS, &cfg.swatch);
+    let initial = InPlaneParams {
+        kxx: 400.0,
+        kxy: 30.0,
+        kyy: 700.0,
+        kss: 220.0,
+        kn1: 25.0,
+        kn2: 35.0,
+        bx: 1.0,
+        by: 1.0,
+        cx: 0.5,
+        cy: 0.5,
+    };
+    let result = fit(&targets, initial, &cfg, None).unwrap();
+    assert_recovered(Model::Stiffening, &result.params, &truth);
+    assert!(result.errors.force_error < 1e-4 && result.errors.compression_error < 1e-4);
+}
+
+fn stiffening_truth() -> InPlaneParams {
+    InPlaneParams {
+        bx: 3.0,
+        by: 6.0,
+        cx: 2.0,
+        cy: 4.0,
+        ..InPlaneParams::example()
+    }
+}
+
+#[test]
+fn uniaxial_test_equals_a_swatch_with_sliding_clamps() {
+    // With sliding clamps the swatch deforms homogeneously, so the FEM swatch and the
+    // homogeneous uniaxial test must give the same force and compression (weft and warp: no
+    // normal–shear coupling there, so the homogeneous state has no shear either).
+    let truth = stiffening_truth();
+    let swatch = SwatchConfig {
+        clamp: Clamp::Sliding,
+        ..coarse()
+    };
+    let dirs = [(Direction::Weft, 0.5), (Direction::Warp, 0.3)];
+    for model in Model::ALL {
+        let fem = virtual_targets_with(VirtualTest::Swatch, model, &truth, &dirs, &swatch);
+        let hom = virtual_targets_with(VirtualTest::Uniaxial, model, &truth, &dirs, &swatch);
+        for (a, b) in fem.iter().zip(&hom) {
+            let rel_f = (a.force - b.force).abs() / b.force.abs();
+            let rel_c = (a.compression - b.compression).abs() / b.compression.abs();
+            assert!(
+                rel_f < 1e-6 && rel_c < 1e-6,
+                "{model:?} {:?} s = {}: swatch ({}, {}) vs uniaxial ({}, {})",
+                a.direction,
+                a.s,
+                a.force,
+                a.compression,
+                b.force,
+                b.compression
+            );
+        }
+    }
+}
+
+#[test]
+fn uniaxial_fit_recovers_known_stiffening_parameters() {
+    let truth = stiffening_truth();
+    let cfg = FitConfig {
+        test: VirtualTest::Uniaxial,
+        ..FitConfig::for_model(Model::Stiffening)
+    };
+    let targets = virtual_targets_with(
+        VirtualTest::Uniaxial,
+        Model::Stiffening,
+        &truth,
+        &ALL_DIRECTIONS,
+        &cfg.swatch,
+    );
     let initial = InPlaneParams {
         kxx: 400.0,
         kxy: 30.0,

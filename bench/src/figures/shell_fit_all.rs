@@ -1,13 +1,15 @@
 //! `shell-fit-all`: every shared hand-knit fabric (two yarns × garter, 1×1 rib, seed,
 //! stockinette; weft and warp tests) fitted with plain StVK, the paper's augmented StVK (Eq. 1)
-//! and the stiffening model beyond the paper, errors in the paper's metric (§5.1, Fig. 13),
-//! and fitted against measured curves for every fabric.
+//! and the stiffening model beyond the paper, each through the paper's clamped-swatch virtual
+//! test and through the homogeneous uniaxial test (the model of the data's locally tracked
+//! strains); errors in the paper's metric (§5.1, Fig. 13), and fitted against measured curves
+//! for every fabric.
 
 use std::path::PathBuf;
 use yarn_pattern::direction::Direction;
 
 use shell_fem::fabrics::{FabricFit, FabricFitOptions, discover, fit_fabric, holdout};
-use shell_fem::fit::Target;
+use shell_fem::fit::{Target, VirtualTest};
 use shell_fem::material::Model;
 use shell_fem::measurements::BinOptions;
 use shell_fem::swatch::SwatchConfig;
@@ -20,7 +22,7 @@ pub fn spec() -> FigureSpec {
     FigureSpec {
         name: "shell-fit-all",
         title: "Thin-shell fits to every shared hand-knit",
-        shows: "paper-metric force and compression errors of StVK, augmented StVK (Eq. 1) and the stiffening model for each of the 8 shared fabrics (weft + warp tests), errors at every measured bin and on a held-out upper third of the stretch range; second image: fitted vs measured curves for every fabric",
+        shows: "paper-metric force and compression errors of StVK, augmented StVK (Eq. 1) and the stiffening model, each through the clamped-swatch (paper) and the homogeneous uniaxial virtual test, for each of the 8 shared fabrics (weft + warp tests), errors at every measured bin and on a held-out upper third of the stretch range; second image: fitted vs measured curves for every fabric",
         paper: "Fig. 13 (paper: avg 17.59 % force, 16.84 % compression over 33 industrial fabrics, augmented StVK); goal here ≤ 12 % for the new model",
         guarded: false,
         run,
@@ -30,6 +32,24 @@ pub fn spec() -> FigureSpec {
 /// Fraction of each stretch range fitted in the hold-out check.
 const HOLDOUT: f64 = 0.67;
 
+/// Every (model, virtual test) pair fitted, the paper's clamped swatch first.
+fn variants() -> Vec<(Model, VirtualTest)> {
+    VirtualTest::ALL
+        .iter()
+        .flat_map(|&t| Model::ALL.iter().map(move |&m| (m, t)))
+        .collect()
+}
+
+/// Position of `x` in `all` (a table index).
+fn index_of<T: PartialEq>(all: &[T], x: T) -> f64 {
+    all.iter().position(|y| *y == x).unwrap_or(0) as f64
+}
+
+/// `model (test)`, e.g. `stiffening (uniaxial)`.
+fn label(model: Model, test: VirtualTest) -> String {
+    format!("{} ({})", model.name(), test.name())
+}
+
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/measurements");
     let (nx, ny, max_iterations) = if ctx.quick {
@@ -37,8 +57,9 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     } else {
         (20, 12, 200)
     };
-    let opts = FabricFitOptions {
+    let base = FabricFitOptions {
         targets: 6,
+        test: VirtualTest::Swatch,
         swatch: SwatchConfig {
             nx,
             ny,
@@ -48,17 +69,19 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     };
     let bins = BinOptions {
         bins: 24,
-        swatch_width: opts.swatch.width,
+        swatch_width: base.swatch.width,
     };
     let mut fabrics = discover(&dir, &bins)?;
     if ctx.quick {
         // Two fabrics (one per yarn) keep the quick run short.
         fabrics.retain(|f| f.name == "acrylic-yarn-stockinette" || f.name == "babyredo-rib");
     }
-    let progress = ctx.progress((fabrics.len() * Model::ALL.len()) as u64, "fits");
+    let variants = variants();
+    let progress = ctx.progress((fabrics.len() * variants.len()) as u64, "fits");
     let mut data = Table::new(&[
         "fabric_index",
         "model_index",
+        "test_index",
         "force_error",
         "compression_error",
         "bins_force_error",
@@ -73,7 +96,11 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let mut config_fits = Vec::new();
     for (i, fabric) in fabrics.iter().enumerate() {
         let mut row = Vec::new();
-        for (j, &model) in Model::ALL.iter().enumerate() {
+        for &(model, test) in &variants {
+            let opts = FabricFitOptions {
+                test,
+                ..base.clone()
+            };
             let f = fit_fabric(fabric, model, &opts)?;
             let held = if ctx.quick {
                 None
@@ -83,7 +110,8 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             let e = &f.fit.errors;
             data.push_row([
                 i as f64,
-                j as f64,
+                index_of(&Model::ALL, model),
+                index_of(&VirtualTest::ALL, test),
                 e.force_error,
                 e.compression_error,
                 f.all_bins.force_error,
@@ -95,7 +123,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 f.fit.iterations as f64,
             ]);
             summary.push((
-                format!("{} / {}", fabric.name, model.name()),
+                format!("{} / {}", fabric.name, label(model, test)),
                 format!(
                     "force {} / compression {} (all bins {} / {}{}); {:.1} s",
                     crate::percent(e.force_error),
@@ -111,7 +139,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 ),
             ));
             config_fits.push(serde_json::json!({
-                "fabric": fabric.name, "model": model.name(), "params": f.fit.params,
+                "fabric": fabric.name, "model": model.name(), "test": test.name(), "params": f.fit.params,
                 "lm_iterations": f.fit.iterations, "termination": f.fit.termination,
             }));
             row.push(f);
@@ -119,7 +147,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         }
         fits.push(row);
     }
-    for (j, model) in Model::ALL.iter().enumerate() {
+    for (j, &(model, test)) in variants.iter().enumerate() {
         let mean = |get: fn(&FabricFit) -> f64| {
             fits.iter().map(|row| get(&row[j])).sum::<f64>() / fits.len() as f64
         };
@@ -128,7 +156,10 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         summary.insert(
             j,
             (
-                format!("{}: mean (worst) force / compression error", model.name()),
+                format!(
+                    "{}: mean (worst) force / compression error",
+                    label(model, test)
+                ),
                 format!(
                     "{} ({}) / {} ({})",
                     crate::percent(mean(|f| f.fit.errors.force_error)),
@@ -139,14 +170,15 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             ),
         );
     }
-    error_charts(&fits, ctx)?;
-    curve_charts(&fits, ctx)?;
+    error_charts(&fits, &variants, ctx)?;
+    curve_charts(&fits, &variants, ctx)?;
     Ok(FigureOutput {
         summary,
         config: serde_json::json!({
             "fabrics": fabrics.iter().map(|f| &f.name).collect::<Vec<_>>(),
             "models": Model::ALL.iter().map(|m| m.name()).collect::<Vec<_>>(),
-            "swatch": {"length_m": opts.swatch.length, "width_m": opts.swatch.width, "nx": nx, "ny": ny},
+            "tests": VirtualTest::ALL.iter().map(|t| t.name()).collect::<Vec<_>>(),
+            "swatch": {"length_m": base.swatch.length, "width_m": base.swatch.width, "nx": nx, "ny": ny},
             "targets_per_direction": 6, "bins": 24, "max_iterations": max_iterations,
             "weighting": "paper (per-direction mean)", "fixed": ["kss"],
             "holdout_fraction": if ctx.quick { None } else { Some(HOLDOUT) },
@@ -157,8 +189,12 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     })
 }
 
-/// Left: force error per fabric and model; right: compression error.
-fn error_charts(fits: &[Vec<FabricFit>], ctx: &FigureContext) -> anyhow::Result<()> {
+/// Left: force error per fabric and variant; right: compression error.
+fn error_charts(
+    fits: &[Vec<FabricFit>],
+    variants: &[(Model, VirtualTest)],
+    ctx: &FigureContext,
+) -> anyhow::Result<()> {
     let mut force = LineChart::new("Force error (paper metric, 6 targets/direction)")
         .x_label("fabric (index, see summary)")
         .y_label("error (%)")
@@ -169,27 +205,36 @@ fn error_charts(fits: &[Vec<FabricFit>], ctx: &FigureContext) -> anyhow::Result<
         .y_label("error (%)")
         .hline("paper avg 16.84 %", 16.84)
         .hline("goal 12 %", 12.0);
-    for (j, model) in Model::ALL.iter().enumerate() {
+    for (j, &(model, test)) in variants.iter().enumerate() {
         let pts = |get: fn(&FabricFit) -> f64| {
             fits.iter()
                 .enumerate()
                 .map(move |(i, row)| (i as f64, 100.0 * get(&row[j])))
                 .collect::<Vec<_>>()
         };
-        force = force.series(Series::line_markers(
-            model.name(),
+        let series = |name: String, points| match test {
+            VirtualTest::Swatch => Series::line_markers(name, points),
+            VirtualTest::Uniaxial => Series::dashed(name, points),
+        };
+        force = force.series(series(
+            label(model, test),
             pts(|f| f.fit.errors.force_error),
         ));
-        comp = comp.series(Series::line_markers(
-            model.name(),
+        comp = comp.series(series(
+            label(model, test),
             pts(|f| f.fit.errors.compression_error),
         ));
     }
     save_side_by_side(&force, &comp, &ctx.out_dir, ctx.name)
 }
 
-/// Per fabric: force and compression against stretch, measured bins and every model's fit.
-fn curve_charts(fits: &[Vec<FabricFit>], ctx: &FigureContext) -> anyhow::Result<()> {
+/// Per fabric: force and compression against stretch, measured bins, the paper's fit
+/// (augmented StVK, clamped swatch; dashed) and the stiffening model through both tests.
+fn curve_charts(
+    fits: &[Vec<FabricFit>],
+    variants: &[(Model, VirtualTest)],
+    ctx: &FigureContext,
+) -> anyhow::Result<()> {
     let mut charts = Vec::new();
     let select = |v: &[Target], d: Direction, get: fn(&Target) -> f64| {
         v.iter()
@@ -214,18 +259,22 @@ fn curve_charts(fits: &[Vec<FabricFit>], ctx: &FigureContext) -> anyhow::Result<
                 format!("{} measured", d.name()),
                 select(&row[0].bins, d, |t| t.compression),
             ));
-            for f in row.iter().filter(|f| f.fit.model != Model::StVK) {
-                let label = format!("{} {}", d.name(), f.fit.model.name());
+            for (f, &(model, test)) in row.iter().zip(variants) {
+                let paper = (model, test) == (Model::Augmented, VirtualTest::Swatch);
+                if !paper && model != Model::Stiffening {
+                    continue;
+                }
+                let name = format!("{} {}", d.name(), label(model, test));
                 let (fs, cs) = (
                     select(&f.bins_simulated, d, |t| t.force),
                     select(&f.bins_simulated, d, |t| t.compression),
                 );
-                if f.fit.model == Model::Stiffening {
-                    force = force.series(Series::line(label.clone(), fs));
-                    comp = comp.series(Series::line(label, cs));
+                if paper {
+                    force = force.series(Series::dashed(name.clone(), fs));
+                    comp = comp.series(Series::dashed(name, cs));
                 } else {
-                    force = force.series(Series::dashed(label.clone(), fs));
-                    comp = comp.series(Series::dashed(label, cs));
+                    force = force.series(Series::line(name.clone(), fs));
+                    comp = comp.series(Series::line(name, cs));
                 }
             }
         }

@@ -26,7 +26,7 @@ use shell_fem::csv_io::CsvTable;
 use shell_fem::curves::TargetCurves;
 use shell_fem::fabrics::{FabricFitOptions, discover, fit_fabric, holdout};
 use shell_fem::fit::{
-    ErrorReport, FitConfig, FitResult, Weighting, fit, initial_guess_for, targets,
+    ErrorReport, FitConfig, FitResult, VirtualTest, Weighting, fit, initial_guess_for, targets,
 };
 use shell_fem::material::{InPlaneParams, Material, Model};
 use shell_fem::measurements::{
@@ -65,9 +65,20 @@ enum WeightArg {
     Relative,
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+enum TestArg {
+    /// The paper's clamped 10 cm × 6 cm swatch (FEM).
+    Swatch,
+    /// Homogeneous uniaxial stress, for strains measured locally on the specimen.
+    Uniaxial,
+}
+
 /// Swatch, target and optimizer options shared by `fit` and `fit-all`.
 #[derive(Args)]
 struct FitArgs {
+    /// Virtual test: `swatch` (paper) or `uniaxial` (homogeneous, no FEM).
+    #[arg(long, value_enum, default_value_t = TestArg::Swatch)]
+    test: TestArg,
     /// Cells along the swatch length (even).
     #[arg(long, default_value_t = 20)]
     nx: usize,
@@ -86,6 +97,13 @@ struct FitArgs {
 }
 
 impl FitArgs {
+    fn test(&self) -> VirtualTest {
+        match self.test {
+            TestArg::Swatch => VirtualTest::Swatch,
+            TestArg::Uniaxial => VirtualTest::Uniaxial,
+        }
+    }
+
     fn swatch(&self) -> SwatchConfig {
         SwatchConfig {
             nx: self.nx,
@@ -310,18 +328,15 @@ fn run_bending_fit(
     Ok(r)
 }
 
-#[allow(clippy::too_many_arguments)]
 fn run_fit(
     data: &[String],
     out: &Path,
-    swatch: SwatchConfig,
-    n_targets: usize,
-    bins: usize,
+    args: &FitArgs,
     m: Model,
     weighting: Weighting,
-    max_iterations: usize,
     bending: &BendingArgs,
 ) -> Result<()> {
+    let (swatch, n_targets, bins) = (args.swatch(), args.targets, args.bins);
     if !(bending.kappa_max.is_finite() && bending.kappa_max > 0.0) {
         bail!(
             "--kappa-max must be finite and > 0, got {}",
@@ -349,9 +364,10 @@ fn run_fit(
     let initial = initial_guess_for(m, &measurements, swatch.width);
     // Without a bias test the shear stiffness is not identifiable: hold it at its guess.
     let mut cfg = FitConfig {
+        test: args.test(),
         swatch,
         weighting,
-        max_iterations,
+        max_iterations: args.max_iterations,
         ..FitConfig::for_model(m)
     };
     cfg.fixed[3] = !dirs.contains(&Direction::Bias);
@@ -423,6 +439,7 @@ fn run_fit(
         "version": env!("CARGO_PKG_VERSION"),
         "data": data,
         "model": format!("{m:?}"),
+        "test": cfg.test.name(),
         "swatch": {"length_m": cfg.swatch.length, "width_m": cfg.swatch.width, "nx": cfg.swatch.nx, "ny": cfg.swatch.ny},
         "targets_per_direction": n_targets,
         "bins": bins,
@@ -594,7 +611,7 @@ fn run_fit_all(dir: &Path, out: &Path, args: &FitAllArgs) -> Result<()> {
             "dir": dir, "fabrics": fabrics.iter().map(|f| &f.name).collect::<Vec<_>>(),
             "models": args.models.iter().map(|m| m.name()).collect::<Vec<_>>(),
             "targets_per_direction": args.opts.targets, "bins": args.bins,
-            "swatch": {"nx": args.opts.swatch.nx, "ny": args.opts.swatch.ny},
+            "test": args.opts.test.name(), "swatch": {"nx": args.opts.swatch.nx, "ny": args.opts.swatch.ny},
             "holdout_fraction": args.holdout,
             "metric": "paper (§5.1): Σ|sim − measured| / Σ|measured| per direction, mean over directions",
         }))?,
@@ -675,12 +692,9 @@ fn main() -> Result<()> {
             run_fit(
                 &data,
                 &out,
-                fit.swatch(),
-                fit.targets,
-                fit.bins,
+                &fit,
                 model(m),
                 w,
-                fit.max_iterations,
                 &BendingArgs {
                     data: bending,
                     pear_nx,
@@ -702,6 +716,7 @@ fn main() -> Result<()> {
                 models: models.into_iter().map(model).collect(),
                 opts: FabricFitOptions {
                     targets: fit.targets,
+                    test: fit.test(),
                     swatch: fit.swatch(),
                     max_iterations: fit.max_iterations,
                 },
