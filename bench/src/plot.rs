@@ -244,6 +244,15 @@ impl LineChart {
     }
 }
 
+/// The points `(x, y)` of columns `x` and `y` of `data`, row by row (for a [`Series`]).
+///
+/// # Panics
+/// If `data` has no column of either name.
+pub fn column_points(data: &yarn_output::table::Table, x: &str, y: &str) -> Vec<(f64, f64)> {
+    let column = |name: &str| data.column(name).expect("column exists");
+    column(x).into_iter().zip(column(y)).collect()
+}
+
 /// Writes two charts side by side as `<dir>/<stem>.png` and `<dir>/<stem>.svg`
 /// (e.g. a curve on the left and per-term energy shares on the right).
 pub fn save_side_by_side(

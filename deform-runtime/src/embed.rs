@@ -17,7 +17,7 @@
 use std::collections::HashMap;
 
 use yarn_output::Polylines;
-use yarn_pattern::tile::Tile;
+use yarn_pattern::tile::{Tile, Topology};
 
 use crate::error::{DeformError, Result};
 use crate::mesh::RestMesh;
@@ -108,143 +108,203 @@ fn cell_of(x: f64, p: f64) -> i64 {
     (x / p).floor() as i64
 }
 
-/// Tiles `tile` over `mesh` and embeds the yarn vertices (see the module docs).
-pub fn embed<T: Real>(
-    mesh: &RestMesh,
-    tile: &Tile,
-    options: &EmbedOptions,
-) -> Result<Embedding<T>> {
-    let topology = tile.topology()?;
-    if !(options.min_fragment_length >= 0.0 && options.min_fragment_length.is_finite()) {
-        return Err(DeformError::Option {
-            name: "min_fragment_length",
-            message: format!(
-                "expected a finite length ≥ 0 m, found {}",
-                options.min_fragment_length
-            ),
-        });
-    }
-    let [px, py] = tile.period;
-    let n = tile.positions.len();
-    // 1. Cells overlapping triangle bounding boxes; the same grid buckets triangles.
-    let mut cell_index: HashMap<(i64, i64), u32> = HashMap::new();
-    let mut cells: Vec<(i64, i64)> = Vec::new();
-    let mut bucket_pairs: Vec<(u32, u32)> = Vec::new();
-    let mut candidates: u64 = 0;
-    for (f, t) in mesh.triangles.iter().enumerate() {
-        let uv = t.map(|v| mesh.vertex_uv[v as usize]);
-        let (u0, u1) = (
-            uv.iter().map(|x| x[0]).fold(f64::INFINITY, f64::min),
-            uv.iter().map(|x| x[0]).fold(f64::NEG_INFINITY, f64::max),
-        );
-        let (v0, v1) = (
-            uv.iter().map(|x| x[1]).fold(f64::INFINITY, f64::min),
-            uv.iter().map(|x| x[1]).fold(f64::NEG_INFINITY, f64::max),
-        );
-        let (i0, i1, j0, j1) = (
-            cell_of(u0, px),
-            cell_of(u1, px),
-            cell_of(v0, py),
-            cell_of(v1, py),
-        );
-        let area = ((i1 - i0 + 1) as u64).saturating_mul((j1 - j0 + 1) as u64);
-        if area.saturating_mul(n as u64) > options.max_candidates {
-            return Err(DeformError::Option {
-                name: "uv_scale",
-                message: format!(
-                    "triangle {f} covers {area} pattern cells; more than the candidate limit {} — is the UV scale right?",
-                    options.max_candidates
-                ),
-            });
-        }
-        for i in i0..=i1 {
-            for j in j0..=j1 {
-                let next = cells.len() as u32;
-                let c = *cell_index.entry((i, j)).or_insert_with(|| {
-                    cells.push((i, j));
-                    candidates += n as u64;
-                    next
+/// Marks a candidate vertex that lies in no triangle.
+const NONE: u32 = u32::MAX;
+
+/// Step 1: the pattern cells overlapping the mesh's UV triangles, with the triangles bucketed
+/// by the same grid. Candidate vertex `id = c · n + v` is tile vertex `v` copied into cell `c`.
+struct CellGrid {
+    /// Pattern period `[px, py]` (m).
+    period: [f64; 2],
+    /// Tile vertices per cell.
+    n: usize,
+    /// Cell `(i, j)` → its index in `cells`.
+    cell_index: HashMap<(i64, i64), u32>,
+    /// Integer cell coordinates, in order of first overlap.
+    cells: Vec<(i64, i64)>,
+    /// Sorted `(cell, triangle)` pairs: the triangles whose bounding box overlaps each cell.
+    bucket_pairs: Vec<(u32, u32)>,
+    /// CSR offsets of each cell's pairs in `bucket_pairs`.
+    bucket_offsets: Vec<u32>,
+}
+
+impl CellGrid {
+    /// Covers the bounding box of every UV triangle of `mesh` with cells of the pattern
+    /// period, failing fast when the candidates exceed `options.max_candidates`.
+    fn cover(mesh: &RestMesh, tile: &Tile, options: &EmbedOptions) -> Result<Self> {
+        let [px, py] = tile.period;
+        let n = tile.positions.len();
+        let mut cell_index: HashMap<(i64, i64), u32> = HashMap::new();
+        let mut cells: Vec<(i64, i64)> = Vec::new();
+        let mut bucket_pairs: Vec<(u32, u32)> = Vec::new();
+        let mut candidates: u64 = 0;
+        for (f, t) in mesh.triangles.iter().enumerate() {
+            let uv = t.map(|v| mesh.vertex_uv[v as usize]);
+            let (u0, u1) = (
+                uv.iter().map(|x| x[0]).fold(f64::INFINITY, f64::min),
+                uv.iter().map(|x| x[0]).fold(f64::NEG_INFINITY, f64::max),
+            );
+            let (v0, v1) = (
+                uv.iter().map(|x| x[1]).fold(f64::INFINITY, f64::min),
+                uv.iter().map(|x| x[1]).fold(f64::NEG_INFINITY, f64::max),
+            );
+            let (i0, i1, j0, j1) = (
+                cell_of(u0, px),
+                cell_of(u1, px),
+                cell_of(v0, py),
+                cell_of(v1, py),
+            );
+            let area = ((i1 - i0 + 1) as u64).saturating_mul((j1 - j0 + 1) as u64);
+            if area.saturating_mul(n as u64) > options.max_candidates {
+                return Err(DeformError::Option {
+                    name: "uv_scale",
+                    message: format!(
+                        "triangle {f} covers {area} pattern cells; more than the candidate limit {} — is the UV scale right?",
+                        options.max_candidates
+                    ),
                 });
-                bucket_pairs.push((c, f as u32));
             }
-        }
-        if candidates > options.max_candidates {
-            return Err(DeformError::Option {
-                name: "uv_scale",
-                message: format!(
-                    "more than {} candidate yarn vertices — is the UV scale right?",
-                    options.max_candidates
-                ),
-            });
-        }
-    }
-    let nc = cells.len();
-    bucket_pairs.sort_unstable();
-    let mut bucket_offsets = vec![0u32; nc + 1];
-    for &(c, _) in &bucket_pairs {
-        bucket_offsets[c as usize + 1] += 1;
-    }
-    for c in 0..nc {
-        bucket_offsets[c + 1] += bucket_offsets[c];
-    }
-    // 2. Point location. kept[c * n + v] = (triangle, du, dv) or none.
-    const NONE: u32 = u32::MAX;
-    let mut located: Vec<u32> = vec![NONE; nc * n];
-    let mut offsets: Vec<[f64; 2]> = vec![[0.0; 2]; nc * n];
-    let mut cut_outside = 0usize;
-    let eps = 1e-12;
-    for (c, &(i, j)) in cells.iter().enumerate() {
-        for v in 0..n {
-            let x = tile.positions[v];
-            let (u, w) = (x.x + i as f64 * px, x.y + j as f64 * py);
-            let found = cell_index
-                .get(&(cell_of(u, px), cell_of(w, py)))
-                .and_then(|&b| {
-                    let range = bucket_offsets[b as usize] as usize
-                        ..bucket_offsets[b as usize + 1] as usize;
-                    bucket_pairs[range].iter().find_map(|&(_, f)| {
-                        let t = mesh.triangles[f as usize];
-                        let o = mesh.vertex_uv[t[0] as usize];
-                        let d = [u - o[0], w - o[1]];
-                        let m = mesh.dm_inv[f as usize];
-                        let b1 = m[0] * d[0] + m[1] * d[1];
-                        let b2 = m[2] * d[0] + m[3] * d[1];
-                        (b1 >= -eps && b2 >= -eps && b1 + b2 <= 1.0 + eps).then_some((f, d))
-                    })
-                });
-            match found {
-                Some((f, d)) => {
-                    located[c * n + v] = f;
-                    offsets[c * n + v] = d;
+            for i in i0..=i1 {
+                for j in j0..=j1 {
+                    let next = cells.len() as u32;
+                    let c = *cell_index.entry((i, j)).or_insert_with(|| {
+                        cells.push((i, j));
+                        candidates += n as u64;
+                        next
+                    });
+                    bucket_pairs.push((c, f as u32));
                 }
-                None => cut_outside += 1,
+            }
+            if candidates > options.max_candidates {
+                return Err(DeformError::Option {
+                    name: "uv_scale",
+                    message: format!(
+                        "more than {} candidate yarn vertices — is the UV scale right?",
+                        options.max_candidates
+                    ),
+                });
             }
         }
+        let nc = cells.len();
+        bucket_pairs.sort_unstable();
+        let mut bucket_offsets = vec![0u32; nc + 1];
+        for &(c, _) in &bucket_pairs {
+            bucket_offsets[c as usize + 1] += 1;
+        }
+        for c in 0..nc {
+            bucket_offsets[c + 1] += bucket_offsets[c];
+        }
+        Ok(Self {
+            period: tile.period,
+            n,
+            cell_index,
+            cells,
+            bucket_pairs,
+            bucket_offsets,
+        })
     }
-    // 3. Follow yarns.
+
+    /// Number of candidate vertices (cells × tile vertices).
+    fn n_candidates(&self) -> usize {
+        self.cells.len() * self.n
+    }
+
+    /// The triangle of the cell's bucket containing the UV point `(u, w)` (within `1e-12` in
+    /// barycentrics) and the point's UV offset from the triangle's first corner.
+    fn locate(&self, mesh: &RestMesh, u: f64, w: f64) -> Option<(u32, [f64; 2])> {
+        let [px, py] = self.period;
+        let eps = 1e-12;
+        let &b = self.cell_index.get(&(cell_of(u, px), cell_of(w, py)))?;
+        let range =
+            self.bucket_offsets[b as usize] as usize..self.bucket_offsets[b as usize + 1] as usize;
+        self.bucket_pairs[range].iter().find_map(|&(_, f)| {
+            let t = mesh.triangles[f as usize];
+            let o = mesh.vertex_uv[t[0] as usize];
+            let d = [u - o[0], w - o[1]];
+            let m = mesh.dm_inv[f as usize];
+            let b1 = m[0] * d[0] + m[1] * d[1];
+            let b2 = m[2] * d[0] + m[3] * d[1];
+            (b1 >= -eps && b2 >= -eps && b1 + b2 <= 1.0 + eps).then_some((f, d))
+        })
+    }
+
+    /// Rest material position `X` (m) of candidate `id`: its tile vertex shifted by its cell.
+    fn material(&self, tile: &Tile, id: usize) -> [f64; 3] {
+        let [px, py] = self.period;
+        let (c, v) = (id / self.n, id % self.n);
+        let (i, j) = self.cells[c];
+        let x = tile.positions[v];
+        [x.x + i as f64 * px, x.y + j as f64 * py, x.z]
+    }
+}
+
+/// Step 2: every candidate vertex located in the UV mesh.
+struct Located {
+    /// Triangle of each candidate ([`NONE`]: cut).
+    triangle: Vec<u32>,
+    /// UV offset of each located candidate from its triangle's first corner (m).
+    offset: Vec<[f64; 2]>,
+    /// Candidates in no triangle.
+    cut_outside: usize,
+}
+
+impl Located {
+    /// Locates every candidate of `grid` in `mesh`.
+    fn locate(mesh: &RestMesh, tile: &Tile, grid: &CellGrid) -> Self {
+        let [px, py] = grid.period;
+        let n = grid.n;
+        let mut triangle: Vec<u32> = vec![NONE; grid.n_candidates()];
+        let mut offset: Vec<[f64; 2]> = vec![[0.0; 2]; grid.n_candidates()];
+        let mut cut_outside = 0usize;
+        for (c, &(i, j)) in grid.cells.iter().enumerate() {
+            for v in 0..n {
+                let x = tile.positions[v];
+                let (u, w) = (x.x + i as f64 * px, x.y + j as f64 * py);
+                match grid.locate(mesh, u, w) {
+                    Some((f, d)) => {
+                        triangle[c * n + v] = f;
+                        offset[c * n + v] = d;
+                    }
+                    None => cut_outside += 1,
+                }
+            }
+        }
+        Self {
+            triangle,
+            offset,
+            cut_outside,
+        }
+    }
+}
+
+/// Step 3: the yarns followed through the periodic edges into chains of located candidates,
+/// each with whether it closes into a loop. Chains start where the previous vertex was cut;
+/// the remaining unvisited candidates form closed loops (or chains ending in a visited one).
+fn follow_yarns(
+    tile: &Tile,
+    topology: &Topology,
+    grid: &CellGrid,
+    located: &Located,
+) -> Vec<(Vec<usize>, bool)> {
+    let n = grid.n;
+    let located = &located.triangle;
+    // Candidate of tile vertex `v` in the cell at `key`, if that cell exists and `v` is located.
+    let candidate = |key: (i64, i64), v: usize| -> Option<usize> {
+        let &c2 = grid.cell_index.get(&key)?;
+        let id = c2 as usize * n + v;
+        (located[id] != NONE).then_some(id)
+    };
     let next_of = |c: usize, v: usize| -> Option<usize> {
         let e = tile.edges[topology.outgoing(v)];
-        let (i, j) = cells[c];
-        let key = (i + i64::from(e.shift[0]), j + i64::from(e.shift[1]));
-        let &c2 = cell_index.get(&key)?;
-        let id = c2 as usize * n + e.v1;
-        (located[id] != NONE).then_some(id)
+        let (i, j) = grid.cells[c];
+        candidate((i + i64::from(e.shift[0]), j + i64::from(e.shift[1])), e.v1)
     };
     let prev_of = |c: usize, v: usize| -> Option<usize> {
         let e = tile.edges[topology.incoming(v)];
-        let (i, j) = cells[c];
-        let key = (i - i64::from(e.shift[0]), j - i64::from(e.shift[1]));
-        let &c2 = cell_index.get(&key)?;
-        let id = c2 as usize * n + e.v0;
-        (located[id] != NONE).then_some(id)
+        let (i, j) = grid.cells[c];
+        candidate((i - i64::from(e.shift[0]), j - i64::from(e.shift[1])), e.v0)
     };
-    let material = |id: usize| -> [f64; 3] {
-        let (c, v) = (id / n, id % n);
-        let (i, j) = cells[c];
-        let x = tile.positions[v];
-        [x.x + i as f64 * px, x.y + j as f64 * py, x.z]
-    };
-    let mut visited = vec![false; nc * n];
+    let mut visited = vec![false; grid.n_candidates()];
     let mut curves: Vec<(Vec<usize>, bool)> = Vec::new();
     let mut chain = Vec::new();
     let follow = |start: usize, visited: &mut Vec<bool>, chain: &mut Vec<usize>| -> bool {
@@ -260,23 +320,34 @@ pub fn embed<T: Real>(
             }
         }
     };
-    for id in 0..nc * n {
+    for id in 0..grid.n_candidates() {
         if located[id] != NONE && !visited[id] && prev_of(id / n, id % n).is_none() {
             let closed = follow(id, &mut visited, &mut chain);
             curves.push((chain.clone(), closed));
         }
     }
-    for id in 0..nc * n {
+    for id in 0..grid.n_candidates() {
         if located[id] != NONE && !visited[id] {
             let closed = follow(id, &mut visited, &mut chain);
             curves.push((chain.clone(), closed));
         }
     }
-    // 4. Drop short fragments and store.
+    curves
+}
+
+/// Step 4: drops the fragments shorter than `options.min_fragment_length` (or with a single
+/// vertex) and stores the kept curves, curve by curve, with the counters.
+fn store_curves<T: Real>(
+    tile: &Tile,
+    grid: &CellGrid,
+    located: &Located,
+    curves: Vec<(Vec<usize>, bool)>,
+    options: &EmbedOptions,
+) -> Embedding<T> {
     let mut stats = EmbedStats {
-        cells: nc,
-        candidates: nc * n,
-        cut_outside,
+        cells: grid.cells.len(),
+        candidates: grid.n_candidates(),
+        cut_outside: located.cut_outside,
         ..EmbedStats::default()
     };
     let mut out = Embedding {
@@ -293,7 +364,7 @@ pub fn embed<T: Real>(
     for (chain, closed) in curves {
         let mut length = 0.0;
         for w in chain.windows(2) {
-            let (a, b) = (material(w[0]), material(w[1]));
+            let (a, b) = (grid.material(tile, w[0]), grid.material(tile, w[1]));
             length +=
                 ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
         }
@@ -303,12 +374,12 @@ pub fn embed<T: Real>(
             continue;
         }
         for &id in &chain {
-            out.triangle.push(located[id]);
-            out.du.push(T::from_f64(offsets[id][0]));
-            out.dv.push(T::from_f64(offsets[id][1]));
-            let m = material(id);
+            out.triangle.push(located.triangle[id]);
+            out.du.push(T::from_f64(located.offset[id][0]));
+            out.dv.push(T::from_f64(located.offset[id][1]));
+            let m = grid.material(tile, id);
             out.height.push(T::from_f64(m[2]));
-            out.tile_vertex.push((id % n) as u32);
+            out.tile_vertex.push((id % grid.n) as u32);
             out.material.push(m);
         }
         out.curve_offsets.push(out.triangle.len() as u32);
@@ -318,6 +389,29 @@ pub fn embed<T: Real>(
     }
     stats.vertices = out.triangle.len();
     out.stats = stats;
+    out
+}
+
+/// Tiles `tile` over `mesh` and embeds the yarn vertices (see the module docs).
+pub fn embed<T: Real>(
+    mesh: &RestMesh,
+    tile: &Tile,
+    options: &EmbedOptions,
+) -> Result<Embedding<T>> {
+    let topology = tile.topology()?;
+    if !(options.min_fragment_length >= 0.0 && options.min_fragment_length.is_finite()) {
+        return Err(DeformError::Option {
+            name: "min_fragment_length",
+            message: format!(
+                "expected a finite length ≥ 0 m, found {}",
+                options.min_fragment_length
+            ),
+        });
+    }
+    let grid = CellGrid::cover(mesh, tile, options)?;
+    let located = Located::locate(mesh, tile, &grid);
+    let curves = follow_yarns(tile, &topology, &grid, &located);
+    let out = store_curves(tile, &grid, &located, curves, options);
     if out.is_empty() {
         return Err(DeformError::EmptyEmbedding {
             uv_area: mesh.total_uv_area(),

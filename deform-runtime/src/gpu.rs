@@ -26,6 +26,7 @@ use std::task::{Context, Poll, Wake};
 use std::time::Instant;
 
 use crate::deform::{Deformer, FrameStats, YarnOutput};
+use crate::embed::Embedding;
 use crate::mesh::{FACE_POLY_LEN, FacePoly};
 
 /// Scalars per face in the GPU face buffer: the 48 of [`FacePoly`], the skip flag, padding.
@@ -226,6 +227,225 @@ fn storage(
     })
 }
 
+/// A storage buffer holding `data`.
+fn upload(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    label: &str,
+    data: &[u8],
+    extra: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    let buffer = storage(device, label, data.len(), extra);
+    queue.write_buffer(&buffer, 0, data);
+    buffer
+}
+
+/// Requests any adapter (high performance preferred) and a device with the adapter's own
+/// limits: the device, its queue, the adapter description and the limits.
+fn open_device() -> Result<(wgpu::Device, wgpu::Queue, String, wgpu::Limits), GpuError> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+    let adapter = block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        force_fallback_adapter: false,
+        compatible_surface: None,
+        apply_limit_buckets: false,
+    }))
+    .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+    let info = adapter.get_info();
+    let adapter_name = format!("{} ({:?}, {:?})", info.name, info.device_type, info.backend);
+    let limits = adapter.limits();
+    let (device, queue) = block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("deform-runtime"),
+        required_features: wgpu::Features::empty(),
+        required_limits: limits.clone(),
+        ..Default::default()
+    }))
+    .map_err(|e| GpuError::Device {
+        adapter: adapter_name.clone(),
+        message: e.to_string(),
+    })?;
+    Ok((device, queue, adapter_name, limits))
+}
+
+/// Checks that each buffer shared by all chunks (database, pattern tables, faces) fits one
+/// binding of `max_binding` bytes.
+fn check_shared_sizes(cpu: &Deformer<f32>, max_binding: u64) -> Result<(), GpuError> {
+    let check = |name: &'static str, bytes: u64| {
+        if bytes > max_binding {
+            Err(GpuError::TooLarge {
+                name,
+                bytes,
+                limit: max_binding,
+            })
+        } else {
+            Ok(())
+        }
+    };
+    check("texels", (cpu.database().texels().len() * 16) as u64)?;
+    check(
+        "pattern tables",
+        (2 * cpu.database().n_vertices() * 16) as u64,
+    )?;
+    check("faces", (cpu.mesh().n_faces() * GPU_FACE_STRIDE * 4) as u64)
+}
+
+/// The buffers every chunk binds: the database texels and pattern tables (uploaded once)
+/// and the face buffer (written per frame).
+struct SharedBuffers {
+    texels: wgpu::Buffer,
+    tile_data: wgpu::Buffer,
+    faces: wgpu::Buffer,
+}
+
+impl SharedBuffers {
+    /// Uploads the database and the pattern tables (rest displacements, twists) of `cpu`
+    /// and allocates the face buffer; `bytes` is scratch.
+    fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        cpu: &Deformer<f32>,
+        bytes: &mut Vec<u8>,
+    ) -> Self {
+        let none = wgpu::BufferUsages::empty();
+        f32_bytes(cpu.database().texels().iter().flatten().copied(), bytes);
+        let texels = upload(device, queue, "database", bytes, none);
+        f32_bytes(
+            cpu.rest_displacements()
+                .iter()
+                .flatten()
+                .copied()
+                .chain(cpu.twists().iter().flat_map(|&t| [t, 0.0, 0.0, 0.0])),
+            bytes,
+        );
+        let tile_data = upload(device, queue, "pattern tables", bytes, none);
+        let faces = storage(
+            device,
+            "faces",
+            cpu.mesh().n_faces() * GPU_FACE_STRIDE * 4,
+            none,
+        );
+        Self {
+            texels,
+            tile_data,
+            faces,
+        }
+    }
+}
+
+/// The compute pipeline of `deform.wgsl`.
+fn deform_pipeline(device: &wgpu::Device) -> wgpu::ComputePipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("deform.wgsl"),
+        source: wgpu::ShaderSource::Wgsl(include_str!("deform.wgsl").into()),
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("deform"),
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
+/// What every chunk of one [`GpuDeformer`] is built from.
+struct ChunkBuilder<'a> {
+    device: &'a wgpu::Device,
+    queue: &'a wgpu::Queue,
+    layout: &'a wgpu::BindGroupLayout,
+    shared: &'a SharedBuffers,
+    embedding: &'a Embedding<f32>,
+    /// Workgroups per dispatch row.
+    row: u32,
+}
+
+impl ChunkBuilder<'_> {
+    /// Splits the yarn vertices into consecutive chunks of at most `per_chunk` vertices;
+    /// `bytes` is scratch.
+    fn chunks(&self, per_chunk: usize, bytes: &mut Vec<u8>) -> Vec<Chunk> {
+        let n = self.embedding.len();
+        let mut chunks = Vec::with_capacity(n.div_ceil(per_chunk));
+        let mut start = 0;
+        while start < n {
+            let len = per_chunk.min(n - start);
+            chunks.push(self.chunk(start, len, bytes));
+            start += len;
+        }
+        chunks
+    }
+
+    /// Uploads the inputs of yarn vertices `start..start + len` and creates the chunk's
+    /// output, read-back and parameter buffers, its bind group and its dispatch grid.
+    fn chunk(&self, start: usize, len: usize, bytes: &mut Vec<u8>) -> Chunk {
+        let (device, e) = (self.device, self.embedding);
+        let range = start..start + len;
+        bytes.clear();
+        for k in range.clone() {
+            for word in [
+                e.triangle[k],
+                e.tile_vertex[k],
+                e.du[k].to_bits(),
+                e.dv[k].to_bits(),
+            ] {
+                bytes.extend_from_slice(&word.to_le_bytes());
+            }
+        }
+        let none = wgpu::BufferUsages::empty();
+        let vin = upload(device, self.queue, "yarn vertices", bytes, none);
+        f32_bytes(e.height[range].iter().copied(), bytes);
+        let vheight = upload(device, self.queue, "yarn heights", bytes, none);
+        let out = storage(
+            device,
+            "output",
+            len * VERTEX_BYTES as usize,
+            wgpu::BufferUsages::COPY_SRC,
+        );
+        let staging = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("read-back"),
+            size: out.size(),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("params"),
+            size: PARAMS_BYTES as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let shared = self.shared;
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("deform"),
+            layout: self.layout,
+            entries: &[
+                (0, &params),
+                (1, &vin),
+                (2, &vheight),
+                (3, &shared.texels),
+                (4, &shared.tile_data),
+                (5, &shared.faces),
+                (6, &out),
+            ]
+            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding,
+                resource: buffer.as_entire_binding(),
+            }),
+        });
+        // `plan_chunks` bounds `len` so that the y count fits the dimension limit.
+        let groups = (len as u64).div_ceil(u64::from(WORKGROUP));
+        let gx = groups.min(u64::from(self.row)) as u32;
+        let gy = groups.div_ceil(u64::from(self.row)) as u32;
+        Chunk {
+            start,
+            len,
+            params,
+            out,
+            staging,
+            bind_group,
+            groups: (gx, gy),
+        }
+    }
+}
+
 impl GpuDeformer {
     /// Requests an adapter and device and uploads the static data of `cpu`, with the
     /// per-vertex arrays split into chunks that fit the device limits.
@@ -236,48 +456,12 @@ impl GpuDeformer {
     /// As [`GpuDeformer::new`], with explicit (smaller) chunks: results do not depend on the
     /// chunking; tests and benchmarks use it to exercise the split.
     pub fn with_chunking(cpu: &Deformer<f32>, chunking: Chunking) -> Result<Self, GpuError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
-        let adapter = block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: None,
-            apply_limit_buckets: false,
-        }))
-        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
-        let info = adapter.get_info();
-        let adapter_name = format!("{} ({:?}, {:?})", info.name, info.device_type, info.backend);
-        let limits = adapter.limits();
-        let (device, queue) = block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("deform-runtime"),
-            required_features: wgpu::Features::empty(),
-            required_limits: limits.clone(),
-            ..Default::default()
-        }))
-        .map_err(|e| GpuError::Device {
-            adapter: adapter_name.clone(),
-            message: e.to_string(),
-        })?;
-        let e = cpu.embedding();
+        let (device, queue, adapter_name, limits) = open_device()?;
         let db = cpu.database();
-        let n = e.len();
-        let n_tile = db.n_vertices();
         let max_binding = limits
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size);
-        let check = |name: &'static str, bytes: u64| {
-            if bytes > max_binding {
-                Err(GpuError::TooLarge {
-                    name,
-                    bytes,
-                    limit: max_binding,
-                })
-            } else {
-                Ok(())
-            }
-        };
-        check("texels", (db.texels().len() * 16) as u64)?;
-        check("pattern tables", (2 * n_tile * 16) as u64)?;
-        check("faces", (cpu.mesh().n_faces() * GPU_FACE_STRIDE * 4) as u64)?;
+        check_shared_sizes(cpu, max_binding)?;
         let (per_chunk, row) = plan_chunks(
             chunking,
             max_binding,
@@ -285,119 +469,27 @@ impl GpuDeformer {
         )?;
 
         let mut bytes = Vec::new();
-        let upload = |label: &str, data: &[u8], extra| {
-            let buffer = storage(&device, label, data.len(), extra);
-            queue.write_buffer(&buffer, 0, data);
-            buffer
-        };
-        f32_bytes(db.texels().iter().flatten().copied(), &mut bytes);
-        let texels = upload("database", &bytes, wgpu::BufferUsages::empty());
-        f32_bytes(
-            cpu.rest_displacements()
-                .iter()
-                .flatten()
-                .copied()
-                .chain(cpu.twists().iter().flat_map(|&t| [t, 0.0, 0.0, 0.0])),
-            &mut bytes,
-        );
-        let tile_data = upload("pattern tables", &bytes, wgpu::BufferUsages::empty());
-        let faces = storage(
-            &device,
-            "faces",
-            cpu.mesh().n_faces() * GPU_FACE_STRIDE * 4,
-            wgpu::BufferUsages::empty(),
-        );
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("deform.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("deform.wgsl").into()),
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("deform"),
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let shared = SharedBuffers::new(&device, &queue, cpu, &mut bytes);
+        let pipeline = deform_pipeline(&device);
         let layout = pipeline.get_bind_group_layout(0);
-        let mut chunks = Vec::with_capacity(n.div_ceil(per_chunk));
-        let mut start = 0;
-        while start < n {
-            let len = per_chunk.min(n - start);
-            let range = start..start + len;
-            bytes.clear();
-            for k in range.clone() {
-                for word in [
-                    e.triangle[k],
-                    e.tile_vertex[k],
-                    e.du[k].to_bits(),
-                    e.dv[k].to_bits(),
-                ] {
-                    bytes.extend_from_slice(&word.to_le_bytes());
-                }
-            }
-            let vin = upload("yarn vertices", &bytes, wgpu::BufferUsages::empty());
-            f32_bytes(e.height[range].iter().copied(), &mut bytes);
-            let vheight = upload("yarn heights", &bytes, wgpu::BufferUsages::empty());
-            let out = storage(
-                &device,
-                "output",
-                len * VERTEX_BYTES as usize,
-                wgpu::BufferUsages::COPY_SRC,
-            );
-            let staging = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("read-back"),
-                size: out.size(),
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            let params = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("params"),
-                size: PARAMS_BYTES as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("deform"),
-                layout: &layout,
-                entries: &[
-                    (0, &params),
-                    (1, &vin),
-                    (2, &vheight),
-                    (3, &texels),
-                    (4, &tile_data),
-                    (5, &faces),
-                    (6, &out),
-                ]
-                .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: buffer.as_entire_binding(),
-                }),
-            });
-            // `plan_chunks` bounds `len` so that the y count fits the dimension limit.
-            let groups = (len as u64).div_ceil(u64::from(WORKGROUP));
-            let gx = groups.min(u64::from(row)) as u32;
-            let gy = groups.div_ceil(u64::from(row)) as u32;
-            chunks.push(Chunk {
-                start,
-                len,
-                params,
-                out,
-                staging,
-                bind_group,
-                groups: (gx, gy),
-            });
-            start += len;
+        let chunks = ChunkBuilder {
+            device: &device,
+            queue: &queue,
+            layout: &layout,
+            shared: &shared,
+            embedding: cpu.embedding(),
+            row,
         }
+        .chunks(per_chunk, &mut bytes);
         let [sx, sa, sy] = db.shape();
         Ok(Self {
             device,
             queue,
             pipeline,
-            faces,
+            faces: shared.faces,
             chunks,
-            n,
-            n_tile,
+            n: cpu.embedding().len(),
+            n_tile: db.n_vertices(),
             shape: [sx as u32, sa as u32, sy as u32],
             uniform: db.uniform_axes(),
             axes: [0, 1, 2].map(|k| db.axis(k).to_vec()),

@@ -372,13 +372,28 @@ impl<T: Real> FrameGeometry<T> {
         radius: f64,
         poly: PolyOptions,
     ) -> MeshCounters {
-        let mut counters = MeshCounters::default();
-        // Sanitize positions.
+        let mut counters = MeshCounters {
+            positions_replaced: self.sanitize_positions(mesh, input),
+            ..MeshCounters::default()
+        };
+        counters.faces_degenerate = self.update_face_frames(mesh);
+        self.update_second_forms(mesh);
+        self.update_position_normals(mesh);
+        let scale_ii = radius.max(f64::MIN_POSITIVE);
+        self.update_vertex_averages(mesh, identity_tolerance, scale_ii);
+        counters.faces_identity = self.update_face_polys(mesh, identity_tolerance, scale_ii, poly);
+        counters
+    }
+
+    /// Copies the finite input positions and replaces non-finite ones by the last finite
+    /// position (on the first frame: the rest UV position); returns the replacements.
+    fn sanitize_positions(&mut self, mesh: &RestMesh, input: &[[f64; 3]]) -> usize {
+        let mut replaced = 0;
         for (p, (q, &x)) in self.positions.iter_mut().zip(input.iter().enumerate()) {
             if x.iter().all(|c| c.is_finite()) {
                 *p = x;
             } else {
-                counters.positions_replaced += 1;
+                replaced += 1;
                 if !self.initialized {
                     // First frame: fall back to the rest UV position of a split vertex of
                     // this position (or the origin when the vertex is unused).
@@ -392,7 +407,13 @@ impl<T: Real> FrameGeometry<T> {
             }
         }
         self.initialized = true;
-        // Faces: F, normal, area, I.
+        replaced
+    }
+
+    /// Per face: `F = Ds Dm⁻¹`, `I = FᵀF`, the unit normal and the world area; returns the
+    /// number of world-degenerate faces.
+    fn update_face_frames(&mut self, mesh: &RestMesh) -> usize {
+        let mut degenerate_faces = 0;
         for (f, t) in mesh.triangles.iter().enumerate() {
             let p = t.map(|v| self.positions[mesh.vertex_position[v as usize] as usize]);
             let (d1, d2) = (sub(p[1], p[0]), sub(p[2], p[0]));
@@ -408,7 +429,7 @@ impl<T: Real> FrameGeometry<T> {
             ff.i = [dot(f1, f1), dot(f1, f2), dot(f2, f2)];
             ff.degenerate = degenerate;
             if degenerate {
-                counters.faces_degenerate += 1;
+                degenerate_faces += 1;
                 ff.n = [0.0; 3];
                 ff.area = 0.0;
             } else {
@@ -416,44 +437,61 @@ impl<T: Real> FrameGeometry<T> {
                 ff.area = len * mesh.uv_area[f].abs();
             }
         }
-        // II from signed dihedral angles.
+        degenerate_faces
+    }
+
+    /// Per face: `II = FᵀΛF` from the signed dihedral angles (zero when degenerate or not
+    /// finite).
+    fn update_second_forms(&mut self, mesh: &RestMesh) {
         for f in 0..mesh.n_faces() {
-            let ff = self.faces[f];
-            let mut ii = [0.0; 3];
-            if !ff.degenerate {
-                let t = mesh.triangles[f].map(|v| mesh.vertex_position[v as usize] as usize);
-                for k in 0..3 {
-                    let (g, opp) = mesh.neighbours[f][k];
-                    if g == u32::MAX || self.faces[g as usize].degenerate {
-                        continue;
-                    }
-                    let (a, b) = (
-                        self.positions[t[(k + 1) % 3]],
-                        self.positions[t[(k + 2) % 3]],
-                    );
-                    let e = sub(b, a);
-                    let elen = norm(e);
-                    let ng = self.faces[g as usize].n;
-                    let angle = norm(cross(ff.n, ng)).atan2(dot(ff.n, ng));
-                    let side = dot(ff.n, sub(self.positions[opp as usize], a));
-                    let theta = if side >= 0.0 { angle } else { -angle };
-                    // In-plane unit normal of the edge.
-                    let te = cross(ff.n, e).map(|x| x / elen);
-                    let beta = theta * elen / (2.0 * ff.area);
-                    let g1 = dot(ff.f[0], te);
-                    let g2 = dot(ff.f[1], te);
-                    ii[0] += beta * g1 * g1;
-                    ii[1] += beta * g1 * g2;
-                    ii[2] += beta * g2 * g2;
-                }
-            }
+            let ii = self.dihedral_second_form(mesh, f);
             self.faces[f].ii = if ii.iter().all(|x| x.is_finite()) {
                 ii
             } else {
                 [0.0; 3]
             };
         }
-        // Position-vertex normals (area-weighted face normals).
+    }
+
+    /// `II = FᵀΛF` of face `f` with the shape operator `Λ = Σₑ θₑ |e| / (2A) tₑ tₑᵀ` over its
+    /// edges shared with non-degenerate neighbours (zero for a degenerate face).
+    fn dihedral_second_form(&self, mesh: &RestMesh, f: usize) -> [f64; 3] {
+        let ff = self.faces[f];
+        let mut ii = [0.0; 3];
+        if ff.degenerate {
+            return ii;
+        }
+        let t = mesh.triangles[f].map(|v| mesh.vertex_position[v as usize] as usize);
+        for k in 0..3 {
+            let (g, opp) = mesh.neighbours[f][k];
+            if g == u32::MAX || self.faces[g as usize].degenerate {
+                continue;
+            }
+            let (a, b) = (
+                self.positions[t[(k + 1) % 3]],
+                self.positions[t[(k + 2) % 3]],
+            );
+            let e = sub(b, a);
+            let elen = norm(e);
+            let ng = self.faces[g as usize].n;
+            let angle = norm(cross(ff.n, ng)).atan2(dot(ff.n, ng));
+            let side = dot(ff.n, sub(self.positions[opp as usize], a));
+            let theta = if side >= 0.0 { angle } else { -angle };
+            // In-plane unit normal of the edge.
+            let te = cross(ff.n, e).map(|x| x / elen);
+            let beta = theta * elen / (2.0 * ff.area);
+            let g1 = dot(ff.f[0], te);
+            let g2 = dot(ff.f[1], te);
+            ii[0] += beta * g1 * g1;
+            ii[1] += beta * g1 * g2;
+            ii[2] += beta * g2 * g2;
+        }
+        ii
+    }
+
+    /// Position-vertex normals: area-weighted face normals (the previous normal, or the UV
+    /// plane normal, where no face is usable).
+    fn update_position_normals(&mut self, mesh: &RestMesh) {
         for q in 0..mesh.n_positions {
             let range = mesh.position_faces_offsets[q] as usize
                 ..mesh.position_faces_offsets[q + 1] as usize;
@@ -474,8 +512,11 @@ impl<T: Real> FrameGeometry<T> {
                 self.position_normals[q] = [0.0, 0.0, 1.0];
             }
         }
-        // Mesh vertices: Shepard averages.
-        let scale_ii = radius.max(f64::MIN_POSITIVE);
+    }
+
+    /// Mesh vertices: Shepard averages of the incident faces' `F`, `I`, `II`, and whether the
+    /// vertex forms are the identity (`|II|` scaled by `scale_ii` = R).
+    fn update_vertex_averages(&mut self, mesh: &RestMesh, identity_tolerance: f64, scale_ii: f64) {
         for v in 0..mesh.n_vertices() {
             let range =
                 mesh.vertex_faces_offsets[v] as usize..mesh.vertex_faces_offsets[v + 1] as usize;
@@ -493,13 +534,8 @@ impl<T: Real> FrameGeometry<T> {
                 }
             }
             let q = mesh.vertex_position[v] as usize;
-            let identity = (isum[0] - 1.0).abs() <= identity_tolerance
-                && isum[1].abs() <= identity_tolerance
-                && (isum[2] - 1.0).abs() <= identity_tolerance
-                && iisum
-                    .iter()
-                    .all(|x| x.abs() * scale_ii <= identity_tolerance);
-            self.vertex_identity[v] = identity;
+            self.vertex_identity[v] =
+                forms_are_identity(&isum, &iisum, identity_tolerance, scale_ii);
             self.vertices[v] = VertexFrame {
                 p: self.positions[q],
                 n: self.position_normals[q],
@@ -508,32 +544,25 @@ impl<T: Real> FrameGeometry<T> {
                 ii: iisum,
             };
         }
+    }
+
+    /// Per face: the skip flag and the kernel polynomials; returns the number of skippable
+    /// (identity) faces.
+    fn update_face_polys(
+        &mut self,
+        mesh: &RestMesh,
+        identity_tolerance: f64,
+        scale_ii: f64,
+        poly: PolyOptions,
+    ) -> usize {
+        let mut identity_faces = 0;
         for (f, t) in mesh.triangles.iter().enumerate() {
             let ff = &self.faces[f];
             let skip = t.iter().all(|&v| self.vertex_identity[v as usize])
-                && (ff.i[0] - 1.0).abs() <= identity_tolerance
-                && ff.i[1].abs() <= identity_tolerance
-                && (ff.i[2] - 1.0).abs() <= identity_tolerance
-                && ff
-                    .ii
-                    .iter()
-                    .all(|x| x.abs() * scale_ii <= identity_tolerance);
-            counters.faces_identity += usize::from(skip);
+                && forms_are_identity(&ff.i, &ff.ii, identity_tolerance, scale_ii);
+            identity_faces += usize::from(skip);
             let n = if ff.degenerate {
-                // Degenerate faces borrow the mean of their corner normals.
-                let mut n = [0.0; 3];
-                for &v in t {
-                    let nv = self.position_normals[mesh.vertex_position[v as usize] as usize];
-                    for c in 0..3 {
-                        n[c] += nv[c];
-                    }
-                }
-                let len = norm(n);
-                if len > 0.0 {
-                    n.map(|x| x / len)
-                } else {
-                    [0.0, 0.0, 1.0]
-                }
+                self.corner_normal_mean(mesh, t)
             } else {
                 ff.n
             };
@@ -541,8 +570,35 @@ impl<T: Real> FrameGeometry<T> {
             let vs = t.map(|v| &self.vertices[v as usize]);
             self.face_poly[f] = face_poly(mesh, f, ff, n, vs, poly);
         }
-        counters
+        identity_faces
     }
+
+    /// The normalized mean of the corner normals of triangle `t` (the UV plane normal if it
+    /// vanishes): the normal a degenerate face borrows.
+    fn corner_normal_mean(&self, mesh: &RestMesh, t: &[u32; 3]) -> [f64; 3] {
+        let mut n = [0.0; 3];
+        for &v in t {
+            let nv = self.position_normals[mesh.vertex_position[v as usize] as usize];
+            for c in 0..3 {
+                n[c] += nv[c];
+            }
+        }
+        let len = norm(n);
+        if len > 0.0 {
+            n.map(|x| x / len)
+        } else {
+            [0.0, 0.0, 1.0]
+        }
+    }
+}
+
+/// Whether `I = [I₁₁, I₁₂, I₂₂]` is the identity and `II` vanishes, entry by entry within
+/// `tolerance` (`|II|` scaled by `scale_ii`, the yarn radius).
+fn forms_are_identity(i: &[f64; 3], ii: &[f64; 3], tolerance: f64, scale_ii: f64) -> bool {
+    (i[0] - 1.0).abs() <= tolerance
+        && i[1].abs() <= tolerance
+        && (i[2] - 1.0).abs() <= tolerance
+        && ii.iter().all(|x| x.abs() * scale_ii <= tolerance)
 }
 
 /// Expands the face polynomials of [`FacePoly`] (see there) for face `f`.

@@ -145,38 +145,9 @@ pub fn bounded_lm<const N: usize, S, E>(
     commit: &mut dyn FnMut(S),
     mut progress: Option<LmProgress<'_>>,
 ) -> Result<LmOutcome<N>, LmError<E>> {
-    let LmBounds {
-        lower,
-        upper,
-        fixed,
-        scale,
-    } = *bounds;
-    if let Some(k) = (0..N).find(|&k| lower[k].is_nan() || upper[k].is_nan() || lower[k] > upper[k])
-    {
-        return Err(LmError::InvalidInput(format!(
-            "parameter {k}: bounds [{}, {}] are not an interval",
-            lower[k], upper[k]
-        )));
-    }
-    if let Some(k) = (0..N).find(|&k| !(scale[k].is_finite() && scale[k] > 0.0)) {
-        return Err(LmError::InvalidInput(format!(
-            "parameter {k}: scale must be finite and > 0, got {}",
-            scale[k]
-        )));
-    }
-    if !p0.iter().all(|v| v.is_finite()) {
-        return Err(LmError::InvalidInput(format!(
-            "initial parameters must be finite, got {p0:?}"
-        )));
-    }
-    let project = |p: &mut [f64; N]| {
-        for k in 0..N {
-            p[k] = p[k].clamp(lower[k], upper[k]);
-        }
-        constrain(p);
-    };
+    check_input(p0, bounds)?;
     let mut p = p0;
-    project(&mut p);
+    project(&mut p, bounds, constrain);
     let (mut r, mut jac, state) = eval(&p).map_err(LmError::InitialEvaluation)?;
     if jac.nrows() != r.len() || jac.ncols() != N {
         return Err(LmError::InvalidInput(format!(
@@ -198,63 +169,28 @@ pub fn bounded_lm<const N: usize, S, E>(
             break;
         }
         iterations += 1;
-        let j = DMatrix::from_fn(jac.nrows(), N, |row, k| {
-            if fixed[k] {
-                0.0
-            } else {
-                jac[(row, k)] * scale[k]
-            }
-        });
-        let jtj = j.transpose() * &j;
-        let jtr = j.transpose() * &r;
+        let (jtj, jtr) = scaled_normal_equations(&jac, &r, bounds);
         if jtr.amax() <= 1e-14 * cost.max(f64::MIN_POSITIVE).sqrt() {
             termination = LmTermination::GradientRoundoff;
             break;
         }
-        let held: [bool; N] = std::array::from_fn(|k| {
-            fixed[k] || (p[k] <= lower[k] && jtr[k] > 0.0) || (p[k] >= upper[k] && jtr[k] < 0.0)
-        });
-        let mut a = jtj.clone();
-        let mut rhs = -&jtr;
-        for k in 0..N {
-            a[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
-            if held[k] {
-                for l in 0..N {
-                    a[(k, l)] = 0.0;
-                    a[(l, k)] = 0.0;
-                }
-                a[(k, k)] = 1.0;
-                rhs[k] = 0.0;
-            }
-        }
-        let Some(step) = a.lu().solve(&rhs) else {
+        let Some(step) = damped_step(&jtj, &jtr, &p, bounds, lambda) else {
             lambda *= 4.0;
             continue;
         };
         let mut trial = p;
         for k in 0..N {
-            trial[k] += step[k] * scale[k];
+            trial[k] += step[k] * bounds.scale[k];
         }
-        project(&mut trial);
+        project(&mut trial, bounds, constrain);
         let moved = (0..N)
-            .map(|k| ((trial[k] - p[k]) / scale[k]).abs())
+            .map(|k| ((trial[k] - p[k]) / bounds.scale[k]).abs())
             .fold(0.0, f64::max);
         if moved <= settings.step_tol {
             termination = LmTermination::StepTolerance;
             break;
         }
-        let accepted = match eval(&trial) {
-            Ok((rt, jt, st)) if jt.nrows() == rt.len() && jt.ncols() == N => {
-                let ct = rt.norm_squared();
-                if ct < cost {
-                    Some((rt, jt, st, ct))
-                } else {
-                    None
-                }
-            }
-            _ => None,
-        };
-        match accepted {
+        match evaluate_trial(eval, &trial, cost) {
             Some((rt, jt, st, ct)) => {
                 let decrease = (cost - ct) / cost.max(f64::MIN_POSITIVE);
                 p = trial;
@@ -288,6 +224,122 @@ pub fn bounded_lm<const N: usize, S, E>(
         iterations,
         termination,
     })
+}
+
+/// Checks that the bounds are intervals, the scales finite and positive, and `p0` finite.
+fn check_input<const N: usize, E>(p0: [f64; N], bounds: &LmBounds<N>) -> Result<(), LmError<E>> {
+    let LmBounds {
+        lower,
+        upper,
+        scale,
+        ..
+    } = *bounds;
+    if let Some(k) = (0..N).find(|&k| lower[k].is_nan() || upper[k].is_nan() || lower[k] > upper[k])
+    {
+        return Err(LmError::InvalidInput(format!(
+            "parameter {k}: bounds [{}, {}] are not an interval",
+            lower[k], upper[k]
+        )));
+    }
+    if let Some(k) = (0..N).find(|&k| !(scale[k].is_finite() && scale[k] > 0.0)) {
+        return Err(LmError::InvalidInput(format!(
+            "parameter {k}: scale must be finite and > 0, got {}",
+            scale[k]
+        )));
+    }
+    if !p0.iter().all(|v| v.is_finite()) {
+        return Err(LmError::InvalidInput(format!(
+            "initial parameters must be finite, got {p0:?}"
+        )));
+    }
+    Ok(())
+}
+
+/// `Π`: clamps `p` onto the box, then applies the caller's further constraints.
+fn project<const N: usize>(
+    p: &mut [f64; N],
+    bounds: &LmBounds<N>,
+    constrain: &dyn Fn(&mut [f64; N]),
+) {
+    for k in 0..N {
+        p[k] = p[k].clamp(bounds.lower[k], bounds.upper[k]);
+    }
+    constrain(p);
+}
+
+/// `J̃ᵀJ̃` and `J̃ᵀr` of the scaled Jacobian `J̃ = J diag(scale)`, with the columns of fixed
+/// parameters zeroed.
+fn scaled_normal_equations<const N: usize>(
+    jac: &DMatrix<f64>,
+    r: &DVector<f64>,
+    bounds: &LmBounds<N>,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let j = DMatrix::from_fn(jac.nrows(), N, |row, k| {
+        if bounds.fixed[k] {
+            0.0
+        } else {
+            jac[(row, k)] * bounds.scale[k]
+        }
+    });
+    (j.transpose() * &j, j.transpose() * r)
+}
+
+/// The scaled step `δ̃` of Marquardt's damped normal equations at `p` with damping `lambda`,
+/// the held parameters (fixed, or on a bound with `−J̃ᵀr` pointing outward) replaced by
+/// identity rows; `None` if the system is singular.
+fn damped_step<const N: usize>(
+    jtj: &DMatrix<f64>,
+    jtr: &DVector<f64>,
+    p: &[f64; N],
+    bounds: &LmBounds<N>,
+    lambda: f64,
+) -> Option<DVector<f64>> {
+    let LmBounds {
+        lower,
+        upper,
+        fixed,
+        ..
+    } = *bounds;
+    let held: [bool; N] = std::array::from_fn(|k| {
+        fixed[k] || (p[k] <= lower[k] && jtr[k] > 0.0) || (p[k] >= upper[k] && jtr[k] < 0.0)
+    });
+    let mut a = jtj.clone();
+    let mut rhs = -jtr;
+    for k in 0..N {
+        a[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
+        if held[k] {
+            for l in 0..N {
+                a[(k, l)] = 0.0;
+                a[(l, k)] = 0.0;
+            }
+            a[(k, k)] = 1.0;
+            rhs[k] = 0.0;
+        }
+    }
+    a.lu().solve(&rhs)
+}
+
+/// An accepted trial point: residuals, Jacobian, state and cost.
+type AcceptedTrial<S> = (DVector<f64>, DMatrix<f64>, S, f64);
+
+/// Evaluates the trial point: its residuals, Jacobian, state and cost if the evaluation
+/// succeeds with a consistent Jacobian and lowers the cost below `cost`, else `None`.
+fn evaluate_trial<const N: usize, S, E>(
+    eval: &mut LmFn<'_, N, S, E>,
+    trial: &[f64; N],
+    cost: f64,
+) -> Option<AcceptedTrial<S>> {
+    match eval(trial) {
+        Ok((rt, jt, st)) if jt.nrows() == rt.len() && jt.ncols() == N => {
+            let ct = rt.norm_squared();
+            if ct < cost {
+                Some((rt, jt, st, ct))
+            } else {
+                None
+            }
+        }
+        _ => None,
+    }
 }
 
 #[cfg(test)]

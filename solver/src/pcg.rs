@@ -225,6 +225,39 @@ impl Pcg {
         x: &mut [f64],
         settings: &PcgSettings,
     ) -> Result<PcgReport, PcgFailure> {
+        self.check_input(lower, b, x)?;
+        self.load_matrix(lower, mu, b)?;
+        if settings.preconditioner == Preconditioner::IncompleteCholesky {
+            let ic = match &mut self.ic {
+                Some(ic) => ic,
+                None => self.ic.insert(IncompleteCholesky::new(lower)?),
+            };
+            ic.factorize(lower.val(), mu)?;
+        }
+        x.fill(0.0);
+        let b_norm = dot(b, b).sqrt();
+        if b_norm == 0.0 {
+            return Ok(PcgReport {
+                iterations: 0,
+                relative_residual: 0.0,
+            });
+        }
+        self.r.copy_from_slice(b);
+        for ((z, &r), &m) in self.z.iter_mut().zip(&self.r).zip(&self.inv_diag) {
+            *z = m * r;
+        }
+        self.apply_incomplete_cholesky(settings);
+        self.p.copy_from_slice(&self.z);
+        self.iterate(mu, b_norm, x, settings)
+    }
+
+    /// Checks that `lower` has the workspace's pattern size and `b`, `x` its dimension.
+    fn check_input(
+        &self,
+        lower: SparseColMatRef<'_, usize, f64>,
+        b: &[f64],
+        x: &[f64],
+    ) -> Result<(), PcgFailure> {
         let n = self.n;
         if lower.nrows() != n || lower.ncols() != n || lower.col_ptr()[n] != self.lower_nnz {
             return Err(PcgFailure::Input(format!(
@@ -242,8 +275,18 @@ impl Pcg {
                 x.len()
             )));
         }
+        Ok(())
+    }
+
+    /// Gathers the full symmetric values of `lower` and the Jacobi preconditioner
+    /// `diag(A + μI)⁻¹`, checking that the input is finite and the diagonal positive.
+    fn load_matrix(
+        &mut self,
+        lower: SparseColMatRef<'_, usize, f64>,
+        mu: f64,
+        b: &[f64],
+    ) -> Result<(), PcgFailure> {
         let lower_values = lower.val();
-        // Gather the full values and the Jacobi preconditioner.
         self.values
             .par_chunks_mut(CHUNK)
             .zip(self.source.par_chunks(CHUNK))
@@ -258,7 +301,7 @@ impl Pcg {
         if !b.iter().all(|v| v.is_finite()) {
             return Err(PcgFailure::NonFinite("right-hand side".into()));
         }
-        for i in 0..n {
+        for i in 0..self.n {
             let d = match self.diag_source[i] {
                 usize::MAX => 0.0,
                 s => lower_values[s],
@@ -270,34 +313,34 @@ impl Pcg {
             }
             self.inv_diag[i] = 1.0 / d;
         }
-        if settings.preconditioner == Preconditioner::IncompleteCholesky {
-            let ic = match &mut self.ic {
-                Some(ic) => ic,
-                None => self.ic.insert(IncompleteCholesky::new(lower)?),
-            };
-            ic.factorize(lower_values, mu)?;
-        }
-        x.fill(0.0);
-        let b_norm = dot(b, b).sqrt();
-        if b_norm == 0.0 {
-            return Ok(PcgReport {
-                iterations: 0,
-                relative_residual: 0.0,
-            });
-        }
-        let target = settings.relative_tolerance * b_norm;
-        self.r.copy_from_slice(b);
-        for ((z, &r), &m) in self.z.iter_mut().zip(&self.r).zip(&self.inv_diag) {
-            *z = m * r;
-        }
-        if let Some(ic) = self
+        Ok(())
+    }
+
+    /// With the IC(0) preconditioner, replaces `z` by `L̃⁻ᵀL̃⁻¹ r`; returns whether it did.
+    fn apply_incomplete_cholesky(&mut self, settings: &PcgSettings) -> bool {
+        match self
             .ic
             .as_ref()
             .filter(|_| settings.preconditioner == Preconditioner::IncompleteCholesky)
         {
-            ic.apply(&self.r, &mut self.z);
+            Some(ic) => {
+                ic.apply(&self.r, &mut self.z);
+                true
+            }
+            None => false,
         }
-        self.p.copy_from_slice(&self.z);
+    }
+
+    /// The CG iterations (Saad Alg. 9.1) from `x = 0`, `r = b`, `z = p = P⁻¹ r`, until
+    /// `‖r‖₂ ≤ tol · ‖b‖₂`.
+    fn iterate(
+        &mut self,
+        mu: f64,
+        b_norm: f64,
+        x: &mut [f64],
+        settings: &PcgSettings,
+    ) -> Result<PcgReport, PcgFailure> {
+        let target = settings.relative_tolerance * b_norm;
         let mut rz = dot(&self.r, &self.z);
         let mut r_norm = b_norm;
         for iteration in 1..=settings.max_iterations {
@@ -309,36 +352,9 @@ impl Pcg {
                 )));
             }
             let alpha = rz / curvature;
-            // x += α p, r −= α q, z = P⁻¹ r; partial sums of rᵀz and rᵀr per chunk.
-            let partials: Vec<(f64, f64)> = x
-                .par_chunks_mut(CHUNK)
-                .zip(self.r.par_chunks_mut(CHUNK))
-                .zip(self.z.par_chunks_mut(CHUNK))
-                .zip(self.p.par_chunks(CHUNK))
-                .zip(self.q.par_chunks(CHUNK))
-                .zip(self.inv_diag.par_chunks(CHUNK))
-                .map(|(((((x, r), z), p), q), m)| {
-                    let (mut rz, mut rr) = (0.0, 0.0);
-                    for i in 0..x.len() {
-                        x[i] += alpha * p[i];
-                        r[i] -= alpha * q[i];
-                        z[i] = m[i] * r[i];
-                        rz += r[i] * z[i];
-                        rr += r[i] * r[i];
-                    }
-                    (rz, rr)
-                })
-                .collect();
-            let (mut rz_new, rr) = partials
-                .iter()
-                .fold((0.0, 0.0), |(a, b), &(c, d)| (a + c, b + d));
-            if let Some(ic) = self
-                .ic
-                .as_ref()
-                .filter(|_| settings.preconditioner == Preconditioner::IncompleteCholesky)
-            {
+            let (mut rz_new, rr) = self.advance(alpha, x);
+            if self.apply_incomplete_cholesky(settings) {
                 // Replace the Jacobi z computed above by the IC(0) one.
-                ic.apply(&self.r, &mut self.z);
                 rz_new = dot(&self.r, &self.z);
             }
             r_norm = rr.sqrt();
@@ -369,6 +385,33 @@ impl Pcg {
             relative_residual: r_norm / b_norm,
             tolerance: settings.relative_tolerance,
         })
+    }
+
+    /// `x += α p`, `r −= α q`, Jacobi `z = P⁻¹ r`, fused and parallel over fixed chunks;
+    /// returns `(rᵀz, rᵀr)` summed chunk by chunk in order.
+    fn advance(&mut self, alpha: f64, x: &mut [f64]) -> (f64, f64) {
+        let partials: Vec<(f64, f64)> = x
+            .par_chunks_mut(CHUNK)
+            .zip(self.r.par_chunks_mut(CHUNK))
+            .zip(self.z.par_chunks_mut(CHUNK))
+            .zip(self.p.par_chunks(CHUNK))
+            .zip(self.q.par_chunks(CHUNK))
+            .zip(self.inv_diag.par_chunks(CHUNK))
+            .map(|(((((x, r), z), p), q), m)| {
+                let (mut rz, mut rr) = (0.0, 0.0);
+                for i in 0..x.len() {
+                    x[i] += alpha * p[i];
+                    r[i] -= alpha * q[i];
+                    z[i] = m[i] * r[i];
+                    rz += r[i] * z[i];
+                    rr += r[i] * r[i];
+                }
+                (rz, rr)
+            })
+            .collect();
+        partials
+            .iter()
+            .fold((0.0, 0.0), |(a, b), &(c, d)| (a + c, b + d))
     }
 
     /// `q = (A + μ I) p`, parallel over fixed row blocks.

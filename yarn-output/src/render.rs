@@ -335,12 +335,38 @@ pub fn render_tubes<T: Copy + Into<f64>>(
     options: &RenderOptions,
 ) -> Result<Rendering> {
     options.validate()?;
-    let n = lines.x.len();
     lines.validate()?;
-    let [right, up, forward] = basis(&options.camera)?;
-    // Camera coordinates (screen x, screen y, depth); NaN marks a skipped vertex.
+    let camera_basis = basis(&options.camera)?;
+    let (cam, skipped) = to_camera(lines, camera_basis);
+    let (center, scale) = fit_view(&cam, options);
+    let mut canvas = Canvas::new(options, center, scale);
+    for c in 0..lines.n_curves() {
+        let base = options.palette[c % options.palette.len()];
+        draw_curve(&mut canvas, lines, c, &cam, base);
+    }
+    Ok(Rendering {
+        image: Image {
+            width: options.width,
+            height: options.height,
+            rgb: canvas.box_filter(options.width as usize, options.height as usize),
+        },
+        framing: Framing::Fixed {
+            center,
+            pixels_per_metre: scale,
+        },
+        segments: canvas.segments,
+        skipped_vertices: skipped,
+    })
+}
+
+/// Camera coordinates (screen x, screen y, depth) of every vertex of `lines` in the
+/// `[right, up, forward]` basis; NaN marks a skipped vertex. Also returns the skipped count.
+fn to_camera<T: Copy + Into<f64>>(
+    lines: &Polylines<'_, T>,
+    [right, up, forward]: [[f64; 3]; 3],
+) -> (Vec<[f64; 3]>, usize) {
     let mut skipped = 0;
-    let cam: Vec<[f64; 3]> = (0..n)
+    let cam: Vec<[f64; 3]> = (0..lines.x.len())
         .map(|k| {
             let p = [lines.x[k].into(), lines.y[k].into(), lines.z[k].into()];
             if p.iter().all(|c| c.is_finite()) {
@@ -351,9 +377,15 @@ pub fn render_tubes<T: Copy + Into<f64>>(
             }
         })
         .collect();
+    (cam, skipped)
+}
+
+/// The screen centre (m) and scale (pixels per metre) of the view: the fixed framing, or
+/// the finite camera-space vertices' bounding box grown by R fitted into the image.
+fn fit_view(cam: &[[f64; 3]], options: &RenderOptions) -> ([f64; 2], f64) {
     let radius = options.radius;
     let (w, h) = (f64::from(options.width), f64::from(options.height));
-    let (center, scale) = match options.framing {
+    match options.framing {
         Framing::Fixed {
             center,
             pixels_per_metre,
@@ -376,19 +408,98 @@ pub fn render_tubes<T: Copy + Into<f64>>(
                 ([0.0, 0.0], 1.0)
             }
         }
-    };
-    let framing = Framing::Fixed {
-        center,
-        pixels_per_metre: scale,
-    };
-    let ss = options.supersample;
-    let (sw, sh) = (options.width * ss, options.height * ss);
-    let s = scale * f64::from(ss);
-    // Screen coordinates of the centre of sample (i, j).
-    let to_screen_x = |i: usize| center[0] + (i as f64 + 0.5 - 0.5 * f64::from(sw)) / s;
-    let to_screen_y = |j: usize| center[1] - (j as f64 + 0.5 - 0.5 * f64::from(sh)) / s;
-    // Sample range covered by [lo, hi] in screen coordinates (empty when outside).
-    let cols = |lo: f64, hi: f64| {
+    }
+}
+
+/// Draws the segments of curve `c` (a sphere for a one-vertex curve, the closing segment of a
+/// closed one) whose end vertices are both finite, in the curve's colour `base`.
+fn draw_curve<T>(
+    canvas: &mut Canvas,
+    lines: &Polylines<'_, T>,
+    c: usize,
+    cam: &[[f64; 3]],
+    base: [u8; 3],
+) {
+    let (start, end) = (
+        lines.curve_offsets[c] as usize,
+        lines.curve_offsets[c + 1] as usize,
+    );
+    let finite = |k: usize| cam[k][0].is_finite();
+    if end == start + 1 {
+        if finite(start) {
+            canvas.draw_capsule(cam[start], cam[start], base);
+        }
+        return;
+    }
+    for k in start + 1..end {
+        if finite(k - 1) && finite(k) {
+            canvas.draw_capsule(cam[k - 1], cam[k], base);
+        }
+    }
+    if lines.closed[c] && end > start + 2 && finite(end - 1) && finite(start) {
+        canvas.draw_capsule(cam[end - 1], cam[start], base);
+    }
+}
+
+/// The supersampled image being drawn: depth and colour per sample, and the screen mapping.
+struct Canvas {
+    /// Screen coordinates (m) of the image centre.
+    center: [f64; 2],
+    /// Samples per metre.
+    s: f64,
+    /// Samples along x and y.
+    sw: u32,
+    sh: u32,
+    /// Samples per pixel along each axis.
+    ss: u32,
+    /// Tube radius R (m).
+    radius: f64,
+    /// Unit direction towards the light (camera coordinates).
+    light: [f64; 3],
+    /// Ambient fraction of the shading.
+    ambient: f64,
+    /// Depth of the nearest hit per sample (`∞`: none).
+    depth: Vec<f64>,
+    /// Colour per sample.
+    colour: Vec<[f32; 3]>,
+    /// Segments drawn.
+    segments: usize,
+}
+
+impl Canvas {
+    /// A blank canvas of the background colour for the view `(center, scale)`.
+    fn new(options: &RenderOptions, center: [f64; 2], scale: f64) -> Self {
+        let ss = options.supersample;
+        let (sw, sh) = (options.width * ss, options.height * ss);
+        let n_samples = sw as usize * sh as usize;
+        Self {
+            center,
+            s: scale * f64::from(ss),
+            sw,
+            sh,
+            ss,
+            radius: options.radius,
+            light: normalize(options.light).expect("validated"),
+            ambient: options.ambient,
+            depth: vec![f64::INFINITY; n_samples],
+            colour: vec![options.background.map(f32::from); n_samples],
+            segments: 0,
+        }
+    }
+
+    /// Screen x coordinate of the centre of sample column `i`.
+    fn to_screen_x(&self, i: usize) -> f64 {
+        self.center[0] + (i as f64 + 0.5 - 0.5 * f64::from(self.sw)) / self.s
+    }
+
+    /// Screen y coordinate of the centre of sample row `j`.
+    fn to_screen_y(&self, j: usize) -> f64 {
+        self.center[1] - (j as f64 + 0.5 - 0.5 * f64::from(self.sh)) / self.s
+    }
+
+    /// Sample columns covered by screen x in `[lo, hi]` (empty when outside).
+    fn cols(&self, lo: f64, hi: f64) -> std::ops::Range<usize> {
+        let (center, s, sw) = (self.center, self.s, self.sw);
         let a = ((lo - center[0]) * s + 0.5 * f64::from(sw) - 0.5)
             .ceil()
             .max(0.0);
@@ -396,8 +507,11 @@ pub fn render_tubes<T: Copy + Into<f64>>(
             .floor()
             .min(f64::from(sw) - 1.0);
         a as usize..(b + 1.0).max(a) as usize
-    };
-    let rows = |lo: f64, hi: f64| {
+    }
+
+    /// Sample rows covered by screen y in `[lo, hi]` (empty when outside).
+    fn rows(&self, lo: f64, hi: f64) -> std::ops::Range<usize> {
+        let (center, s, sh) = (self.center, self.s, self.sh);
         let a = ((center[1] - hi) * s + 0.5 * f64::from(sh) - 0.5)
             .ceil()
             .max(0.0);
@@ -405,32 +519,31 @@ pub fn render_tubes<T: Copy + Into<f64>>(
             .floor()
             .min(f64::from(sh) - 1.0);
         a as usize..(b + 1.0).max(a) as usize
-    };
-    let light = normalize(options.light).expect("validated");
-    let n_samples = sw as usize * sh as usize;
-    let mut depth = vec![f64::INFINITY; n_samples];
-    let mut colour = vec![options.background.map(f32::from); n_samples];
-    let mut segments = 0;
-    let mut draw = |a: [f64; 3], b: [f64; 3], base: [u8; 3]| {
-        segments += 1;
+    }
+
+    /// Draws the capsule around segment `a`–`b` (camera coordinates) in colour `base`, shaded
+    /// Lambert plus ambient, where it is nearer than what is drawn.
+    fn draw_capsule(&mut self, a: [f64; 3], b: [f64; 3], base: [u8; 3]) {
+        self.segments += 1;
+        let radius = self.radius;
         let ba = sub(b, a);
         let baba = dot(ba, ba);
         let (xs, ys) = (
-            cols(a[0].min(b[0]) - radius, a[0].max(b[0]) + radius),
-            rows(a[1].min(b[1]) - radius, a[1].max(b[1]) + radius),
+            self.cols(a[0].min(b[0]) - radius, a[0].max(b[0]) + radius),
+            self.rows(a[1].min(b[1]) - radius, a[1].max(b[1]) + radius),
         );
         for j in ys {
-            let py = to_screen_y(j);
+            let py = self.to_screen_y(j);
             for i in xs.clone() {
-                let px = to_screen_x(i);
+                let px = self.to_screen_x(i);
                 let Some(t) = hit_capsule(px, py, a, b, radius) else {
                     continue;
                 };
-                let k = j * sw as usize + i;
-                if t >= depth[k] {
+                let k = j * self.sw as usize + i;
+                if t >= self.depth[k] {
                     continue;
                 }
-                depth[k] = t;
+                self.depth[k] = t;
                 let p = [px, py, t];
                 let u = if baba > 0.0 {
                     (dot(sub(p, a), ba) / baba).clamp(0.0, 1.0)
@@ -439,63 +552,35 @@ pub fn render_tubes<T: Copy + Into<f64>>(
                 };
                 let q = [a[0] + u * ba[0], a[1] + u * ba[1], a[2] + u * ba[2]];
                 let normal = sub(p, q).map(|c| c / radius);
-                let lambert = dot(normal, light).max(0.0);
-                let shade = (options.ambient + (1.0 - options.ambient) * lambert) as f32;
-                colour[k] = base.map(|c| f32::from(c) * shade);
+                let lambert = dot(normal, self.light).max(0.0);
+                let shade = (self.ambient + (1.0 - self.ambient) * lambert) as f32;
+                self.colour[k] = base.map(|c| f32::from(c) * shade);
             }
-        }
-    };
-    for c in 0..lines.n_curves() {
-        let (start, end) = (
-            lines.curve_offsets[c] as usize,
-            lines.curve_offsets[c + 1] as usize,
-        );
-        let base = options.palette[c % options.palette.len()];
-        let finite = |k: usize| cam[k][0].is_finite();
-        if end == start + 1 {
-            if finite(start) {
-                draw(cam[start], cam[start], base);
-            }
-            continue;
-        }
-        for k in start + 1..end {
-            if finite(k - 1) && finite(k) {
-                draw(cam[k - 1], cam[k], base);
-            }
-        }
-        if lines.closed[c] && end > start + 2 && finite(end - 1) && finite(start) {
-            draw(cam[end - 1], cam[start], base);
         }
     }
-    // Box filter down to the output size.
-    let (width, height) = (options.width as usize, options.height as usize);
-    let ss = ss as usize;
-    let norm = 1.0 / (ss * ss) as f32;
-    let mut rgb = Vec::with_capacity(3 * width * height);
-    for y in 0..height {
-        for x in 0..width {
-            let mut acc = [0.0f32; 3];
-            for j in y * ss..(y + 1) * ss {
-                for i in x * ss..(x + 1) * ss {
-                    let c = colour[j * sw as usize + i];
-                    for d in 0..3 {
-                        acc[d] += c[d];
+
+    /// The image of `width × height` pixels: each pixel the box-filtered mean of its
+    /// `ss × ss` samples, as 8-bit RGB.
+    fn box_filter(&self, width: usize, height: usize) -> Vec<u8> {
+        let ss = self.ss as usize;
+        let norm = 1.0 / (ss * ss) as f32;
+        let mut rgb = Vec::with_capacity(3 * width * height);
+        for y in 0..height {
+            for x in 0..width {
+                let mut acc = [0.0f32; 3];
+                for j in y * ss..(y + 1) * ss {
+                    for i in x * ss..(x + 1) * ss {
+                        let c = self.colour[j * self.sw as usize + i];
+                        for d in 0..3 {
+                            acc[d] += c[d];
+                        }
                     }
                 }
+                rgb.extend(acc.map(|v| (v * norm).round().clamp(0.0, 255.0) as u8));
             }
-            rgb.extend(acc.map(|v| (v * norm).round().clamp(0.0, 255.0) as u8));
         }
+        rgb
     }
-    Ok(Rendering {
-        image: Image {
-            width: options.width,
-            height: options.height,
-            rgb,
-        },
-        framing,
-        segments,
-        skipped_vertices: skipped,
-    })
 }
 
 #[cfg(test)]

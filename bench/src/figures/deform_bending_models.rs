@@ -16,12 +16,16 @@
 //! off) of both models on a larger rolled sheet, as the median over the curvatures of the
 //! per-curvature ratio.
 
+use deform_runtime::bending::BendingDatabase;
+use deform_runtime::obj::ObjMesh;
 use deform_runtime::pipeline::{SetupOptions, build};
 use deform_runtime::{DeformOptions, Deformer, synthetic};
+use yarn_pattern::madypg::Database;
+use yarn_pattern::tile::Tile;
 
-use super::deform_bending_db::{KAPPA_MAX, bending, rolled};
+use super::deform_bending_db::{KAPPA_MAX, RealBending, bending, rolled};
 use super::deform_real_db as real;
-use crate::plot::{LineChart, Series, save_side_by_side};
+use crate::plot::{LineChart, Series, column_points, save_side_by_side};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
 
 /// Registry entry.
@@ -61,9 +65,138 @@ fn interior_difference(
     [(sum / count.max(1) as f64).sqrt() / r, max.sqrt() / r]
 }
 
-fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
-    let n = if ctx.quick { 3 } else { 5 };
-    let kappas: Vec<f64> = if ctx.quick {
+/// The bending directions of the accuracy comparison: along x, along y and the diagonal.
+const DIRECTIONS: [(&str, [f64; 2]); 3] = [
+    ("x", [1.0, 0.0]),
+    ("y", [0.0, 1.0]),
+    (
+        "diagonal",
+        [
+            std::f64::consts::FRAC_1_SQRT_2,
+            std::f64::consts::FRAC_1_SQRT_2,
+        ],
+    ),
+];
+
+/// The accuracy comparison: a sheet of 6 × 6 periods, 12 × 12 quads, deformed by both models
+/// in f64.
+struct AccuracySheet {
+    cells: f64,
+    quads: usize,
+    mesh: ObjMesh,
+    /// UV size of the sheet (m).
+    size: [f64; 2],
+    /// Vertices closer than this to the boundary are left out (1.5 quads, m).
+    margin: [f64; 2],
+    linearized: Deformer<f64>,
+    explicit: Deformer<f64>,
+}
+
+impl AccuracySheet {
+    /// The sheet with both models on the in-plane database `db`.
+    fn new(tile: &Tile, db: &Database, options: &SetupOptions) -> anyhow::Result<Self> {
+        let (cells, quads) = (6.0, 12);
+        let mesh = real::sheet(tile, cells, quads);
+        let size = [cells * tile.period[0], cells * tile.period[1]];
+        let margin = size.map(|s| 1.5 * s / quads as f64);
+        let linearized = build::<f64>(tile, db, &mesh, options)?;
+        let explicit = build::<f64>(tile, db, &mesh, options)?;
+        Ok(Self {
+            cells,
+            quads,
+            mesh,
+            size,
+            margin,
+            linearized,
+            explicit,
+        })
+    }
+
+    /// The sheet rolled with curvature `kappa` along each of [`DIRECTIONS`]: RMS and max
+    /// interior distance / `r` between the linearized and the explicit model, per direction.
+    fn differences(
+        &mut self,
+        kappa: f64,
+        bending: &BendingDatabase<f64>,
+        r: f64,
+    ) -> anyhow::Result<Vec<f64>> {
+        let mut row = Vec::new();
+        for (_, dir) in DIRECTIONS {
+            let pos = synthetic::map_uvs(&self.mesh, |uv| rolled(uv, dir, kappa));
+            self.linearized.frame(&pos)?;
+            self.explicit.frame_explicit(&pos, bending)?;
+            row.extend(interior_difference(
+                &self.linearized,
+                &self.explicit,
+                self.size,
+                self.margin,
+                r,
+            ));
+        }
+        Ok(row)
+    }
+}
+
+/// The speed comparison: a larger sheet (f32, 32 quads per side) rolled along x, with
+/// identity-face skipping off so that the flat frame costs a full lookup per vertex too.
+struct SpeedSheet {
+    cells: f64,
+    /// Frames per model and curvature (the best counts).
+    frames: usize,
+    mesh: ObjMesh,
+    deformer: Deformer<f32>,
+    /// Yarn vertices.
+    vertices: f64,
+}
+
+impl SpeedSheet {
+    /// The quick (16 periods, best of 9) or full (40 periods, best of 15) sheet on `db`.
+    fn new(
+        tile: &Tile,
+        db: &Database,
+        options: &SetupOptions,
+        quick: bool,
+    ) -> anyhow::Result<Self> {
+        let (cells, frames) = if quick { (16.0, 9) } else { (40.0, 15) };
+        let mesh = real::sheet(tile, cells, 32);
+        let timing = SetupOptions {
+            deform: DeformOptions {
+                skip_identity: false,
+                ..options.deform
+            },
+            ..*options
+        };
+        let deformer = build::<f32>(tile, db, &mesh, &timing)?;
+        let vertices = deformer.embedding().len() as f64;
+        Ok(Self {
+            cells,
+            frames,
+            mesh,
+            deformer,
+            vertices,
+        })
+    }
+
+    /// Best per-vertex stage time (ns per yarn vertex) of the linearized and the explicit
+    /// model on the sheet rolled along x with curvature `kappa`.
+    fn ns_per_vertex(
+        &mut self,
+        kappa: f64,
+        bending: &BendingDatabase<f32>,
+    ) -> anyhow::Result<[f64; 2]> {
+        let pos = synthetic::map_uvs(&self.mesh, |uv| rolled(uv, [1.0, 0.0], kappa));
+        let (mut lin, mut exp) = (f64::INFINITY, f64::INFINITY);
+        for _ in 0..self.frames {
+            lin = lin.min(self.deformer.frame(&pos)?.vertex_seconds);
+            exp = exp.min(self.deformer.frame_explicit(&pos, bending)?.vertex_seconds);
+        }
+        Ok([1e9 * lin / self.vertices, 1e9 * exp / self.vertices])
+    }
+}
+
+/// Curvature samples κ (1/m) of the bending databases: 3 (quick) or 5 in `[−κmax, κmax]`.
+fn database_kappas(quick: bool) -> Vec<f64> {
+    if quick {
         vec![-KAPPA_MAX, 0.0, KAPPA_MAX]
     } else {
         vec![
@@ -73,21 +206,20 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             0.5 * KAPPA_MAX,
             KAPPA_MAX,
         ]
-    };
+    }
+}
+
+fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
+    let n = if ctx.quick { 3 } else { 5 };
+    let kappas = database_kappas(ctx.quick);
     let reference = real::reference(ctx)?;
     let tile = &reference.tile;
     let r = tile.radius;
     let real_bending = bending(ctx, n, &kappas)?;
-    let (solves, bending_seconds) = (real_bending.solves, real_bending.seconds);
     let inplane_db = &real_bending.inplane.generated.database;
     let bending64 = real_bending.model::<f64>(tile)?;
     let bending32 = real_bending.model::<f32>(tile)?;
 
-    // Accuracy: a sheet of 6 × 6 periods, 12 × 12 quads.
-    let (cells, quads) = (6.0, 12);
-    let mesh = real::sheet(tile, cells, quads);
-    let size = [cells * tile.period[0], cells * tile.period[1]];
-    let margin = size.map(|s| 1.5 * s / quads as f64);
     let options = SetupOptions {
         uv_scale: 1.0,
         deform: DeformOptions {
@@ -96,28 +228,12 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         },
         ..SetupOptions::default()
     };
-    let mut linearized = build::<f64>(tile, inplane_db, &mesh, &options)?;
-    let mut explicit = build::<f64>(tile, inplane_db, &mesh, &options)?;
+    let mut accuracy = AccuracySheet::new(tile, inplane_db, &options)?;
     let steps = if ctx.quick { 5 } else { 13 };
     let sweep: Vec<f64> = (0..steps)
         .map(|k| KAPPA_MAX * (2.0 * k as f64 / (steps - 1) as f64 - 1.0))
         .collect();
-    let h = std::f64::consts::FRAC_1_SQRT_2;
-    let directions = [("x", [1.0, 0.0]), ("y", [0.0, 1.0]), ("diagonal", [h, h])];
-
-    // Speed: a larger sheet (f32), rolled along x.
-    // Identity-face skipping off, so that the flat frame costs a full lookup per vertex too.
-    let (big_cells, frames) = if ctx.quick { (16.0, 9) } else { (40.0, 15) };
-    let big = real::sheet(tile, big_cells, 32);
-    let timing = SetupOptions {
-        deform: DeformOptions {
-            skip_identity: false,
-            ..options.deform
-        },
-        ..options
-    };
-    let mut fast = build::<f32>(tile, inplane_db, &big, &timing)?;
-    let big_n = fast.embedding().len() as f64;
+    let mut speed = SpeedSheet::new(tile, inplane_db, &options, ctx.quick)?;
 
     let mut data = Table::new(&[
         "kappa_per_m",
@@ -133,115 +249,132 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let progress = ctx.progress(sweep.len() as u64, "curvatures");
     for &kappa in &sweep {
         let mut row = vec![kappa];
-        for (_, dir) in directions {
-            let pos = synthetic::map_uvs(&mesh, |uv| rolled(uv, dir, kappa));
-            linearized.frame(&pos)?;
-            explicit.frame_explicit(&pos, &bending64)?;
-            row.extend(interior_difference(&linearized, &explicit, size, margin, r));
-        }
-        let pos = synthetic::map_uvs(&big, |uv| rolled(uv, [1.0, 0.0], kappa));
-        let (mut lin, mut exp) = (f64::INFINITY, f64::INFINITY);
-        for _ in 0..frames {
-            lin = lin.min(fast.frame(&pos)?.vertex_seconds);
-            exp = exp.min(fast.frame_explicit(&pos, &bending32)?.vertex_seconds);
-        }
-        row.extend([1e9 * lin / big_n, 1e9 * exp / big_n]);
+        row.extend(accuracy.differences(kappa, &bending64, r)?);
+        row.extend(speed.ns_per_vertex(kappa, &bending32)?);
         data.push_row(row);
         progress.inc(1);
     }
     progress.finish_and_clear();
+    save_charts(ctx, &data, &speed)?;
 
+    let summary = summary(
+        &data,
+        steps / 2,
+        n,
+        &kappas,
+        &real_bending,
+        &bending32,
+        &speed,
+    );
+    Ok(FigureOutput {
+        summary,
+        config: serde_json::json!({
+            "pattern": real::PATTERN,
+            "in_plane_database": format!("real {n}³ from sim_periodic::database::generate, relaxed tile"),
+            "axes": {"sx": real::SX, "sa": real::SA, "sy": real::SY},
+            "bending_kappas_per_m": kappas,
+            "sheet_cells": accuracy.cells, "sheet_quads": accuracy.quads,
+            "interior_margin_m": accuracy.margin,
+            "sweep_kappas_per_m": sweep,
+            "speed": {"sheet_cells": speed.cells, "quads": 32, "yarn_vertices": speed.vertices,
+                      "frames": speed.frames, "skip_identity": false,
+                      "precision": "f32", "threads": rayon::current_num_threads()},
+            "accuracy_precision": "f64",
+        }),
+        data,
+    })
+}
+
+/// Per-curvature time ratio explicit / linearized (per-vertex stage) of each CSV row.
+fn time_ratios(data: &Table) -> Vec<f64> {
     let col = |name: &str| data.column(name).expect("column exists");
-    let x = col("kappa_per_m");
-    let zip = |y: &[f64]| x.iter().copied().zip(y.iter().copied()).collect::<Vec<_>>();
+    col("ns_per_vertex_explicit")
+        .iter()
+        .zip(&col("ns_per_vertex_linearized"))
+        .map(|(e, l)| e / l)
+        .collect()
+}
+
+/// Left: the interior differences over curvature per direction; right: the time ratio.
+fn save_charts(ctx: &FigureContext, data: &Table, speed: &SpeedSheet) -> anyhow::Result<()> {
     let mut left = LineChart::new("Linearized − explicit bending model (interior vertices)")
         .x_label("curvature κ (1/m)")
         .y_label("yarn-vertex distance / R");
-    for (name, _) in directions {
+    for (name, _) in DIRECTIONS {
         left = left
             .series(Series::line_markers(
                 format!("RMS, bent along {name}"),
-                zip(&col(&format!("rms_over_r_{name}"))),
+                column_points(data, "kappa_per_m", &format!("rms_over_r_{name}")),
             ))
             .series(Series::dashed(
                 format!("max, bent along {name}"),
-                zip(&col(&format!("max_over_r_{name}"))),
+                column_points(data, "kappa_per_m", &format!("max_over_r_{name}")),
             ));
     }
-    let ratio_points: Vec<(f64, f64)> = x
-        .iter()
-        .zip(
-            col("ns_per_vertex_explicit")
-                .iter()
-                .zip(&col("ns_per_vertex_linearized")),
-        )
-        .map(|(&k, (e, l))| (k, e / l))
-        .collect();
+    let kappas = data.column("kappa_per_m").expect("column exists");
+    let ratio_points: Vec<(f64, f64)> = kappas.into_iter().zip(time_ratios(data)).collect();
     let right = LineChart::new(format!(
-        "Explicit / linearized per-vertex time (f32, best of {frames})"
+        "Explicit / linearized per-vertex time (f32, best of {})",
+        speed.frames
     ))
     .x_label("curvature κ (1/m)")
     .y_label("time ratio")
     .series(Series::line_markers(
         format!(
             "{:.0} k yarn vertices, {} threads",
-            big_n / 1e3,
+            speed.vertices / 1e3,
             rayon::current_num_threads()
         ),
         ratio_points,
     ))
     .hline("paper (CPU): ≈ 8×", 8.0);
-    save_side_by_side(&left, &right, &ctx.out_dir, ctx.name)?;
+    save_side_by_side(&left, &right, &ctx.out_dir, ctx.name)
+}
 
+/// Key numbers: the differences at the largest curvature and on the flat sheet (row
+/// `flat_row`), the median time ratio and the cost and size of the bending databases of the
+/// `n³` in-plane database.
+fn summary(
+    data: &Table,
+    flat_row: usize,
+    n: usize,
+    kappas: &[f64],
+    real_bending: &RealBending,
+    bending32: &BendingDatabase<f32>,
+    speed: &SpeedSheet,
+) -> Vec<(String, String)> {
     // Median over the curvatures of the per-curvature time ratio (robust to a noisy frame).
-    let mut ratios: Vec<f64> = col("ns_per_vertex_explicit")
-        .iter()
-        .zip(&col("ns_per_vertex_linearized"))
-        .map(|(e, l)| e / l)
-        .collect();
+    let mut ratios = time_ratios(data);
     ratios.sort_by(f64::total_cmp);
     let ratio = ratios[ratios.len() / 2];
     let at_max = data.rows.last().cloned().unwrap_or_default();
-    let at_zero = data.rows[steps / 2].clone();
-    Ok(FigureOutput {
-        summary: vec![
-            (
-                format!("difference at κ = {KAPPA_MAX} 1/m (bent along x / y / diagonal)"),
-                format!(
-                    "RMS {:.3} / {:.3} / {:.3} R, max {:.3} / {:.3} / {:.3} R",
-                    at_max[1], at_max[3], at_max[5], at_max[2], at_max[4], at_max[6]
-                ),
+    let at_zero = data.rows[flat_row].clone();
+    vec![
+        (
+            format!("difference at κ = {KAPPA_MAX} 1/m (bent along x / y / diagonal)"),
+            format!(
+                "RMS {:.3} / {:.3} / {:.3} R, max {:.3} / {:.3} / {:.3} R",
+                at_max[1], at_max[3], at_max[5], at_max[2], at_max[4], at_max[6]
             ),
-            (
-                "difference on the flat sheet (κ = 0)".into(),
-                format!("max {:.2e} R", at_zero[2].max(at_zero[4]).max(at_zero[6])),
+        ),
+        (
+            "difference on the flat sheet (κ = 0)".into(),
+            format!("max {:.2e} R", at_zero[2].max(at_zero[4]).max(at_zero[6])),
+        ),
+        (
+            "explicit / linearized per-vertex time (median over κ)".into(),
+            format!("{ratio:.2}× (paper: ≈ 8×)"),
+        ),
+        (
+            "bending databases".into(),
+            format!(
+                "2 × {} curvatures × {n}³, {} equilibrium solves in {:.1} s, {:.2} MB (in-plane: {:.2} MB)",
+                kappas.len(),
+                real_bending.solves,
+                real_bending.seconds,
+                bending32.memory_bytes() as f64 / 1e6,
+                speed.deformer.database().memory_bytes() as f64 / 1e6
             ),
-            (
-                "explicit / linearized per-vertex time (median over κ)".into(),
-                format!("{ratio:.2}× (paper: ≈ 8×)"),
-            ),
-            (
-                "bending databases".into(),
-                format!(
-                    "2 × {} curvatures × {n}³, {solves} equilibrium solves in {bending_seconds:.1} s, {:.2} MB (in-plane: {:.2} MB)",
-                    kappas.len(),
-                    bending32.memory_bytes() as f64 / 1e6,
-                    fast.database().memory_bytes() as f64 / 1e6
-                ),
-            ),
-        ],
-        config: serde_json::json!({
-            "pattern": real::PATTERN,
-            "in_plane_database": format!("real {n}³ from sim_periodic::database::generate, relaxed tile"),
-            "axes": {"sx": real::SX, "sa": real::SA, "sy": real::SY},
-            "bending_kappas_per_m": kappas,
-            "sheet_cells": cells, "sheet_quads": quads, "interior_margin_m": margin,
-            "sweep_kappas_per_m": sweep,
-            "speed": {"sheet_cells": big_cells, "quads": 32, "yarn_vertices": big_n, "frames": frames,
-                      "skip_identity": false,
-                      "precision": "f32", "threads": rayon::current_num_threads()},
-            "accuracy_precision": "f64",
-        }),
-        data,
-    })
+        ),
+    ]
 }

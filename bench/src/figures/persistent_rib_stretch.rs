@@ -27,6 +27,7 @@ use crate::{FigureContext, FigureOutput, FigureSpec, Table};
 use sim_persistent::experiment::{
     RibStretch, RibStretchRun, StretchSample, SwatchSettings, kind_name,
 };
+use sim_persistent::forces::TermKind;
 use sim_persistent::integrator::StepSettings;
 
 /// Registry entry.
@@ -102,6 +103,9 @@ fn coulomb_pull(quick: bool) -> anyhow::Result<RibStretchRun> {
     Ok(run)
 }
 
+/// Samples per sliding window of the energy shares (2 samples of 0.5 mm: 1 mm of pull).
+const SHARE_WINDOW: usize = 2;
+
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let experiment = experiment(ctx.quick);
     let progress = ctx.progress(2, "settle and pull");
@@ -116,6 +120,40 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         coulomb.samples.len()
     );
     let kinds = kinds(&result);
+    let data = pull_table(&result, &coulomb, &kinds);
+    let shares = energy_shares(&result, &kinds, SHARE_WINDOW);
+    save_charts(ctx, &result, &coulomb, &kinds, &shares)?;
+    let regimes = dominant_regimes(&shares, &kinds);
+    Ok(FigureOutput {
+        summary: summary(&result, &coulomb, &regimes),
+        config: serde_json::json!({
+            "pattern": "rib 2x2", "width": experiment.width, "height": experiment.height,
+            "yarn": "Table 1 sweater (R = 0.75 mm), loop width 3 mm, no gravity",
+            "damping_alpha": sim_persistent::experiment::ALPHA,
+            "dt_s": experiment.settings.dt, "settle_time_s": experiment.settings.settle_time,
+            "clamp_speed_m_per_s": experiment.speed, "extension_m": experiment.extension,
+            "newton_abs_tol_n": experiment.settings.newton_abs_tol,
+        }),
+        data,
+    })
+}
+
+/// The elastic energy stored by term kind `k` at sample `s` (J; 0 when absent).
+fn stored_energy(s: &StretchSample, k: TermKind) -> f64 {
+    s.energies
+        .iter()
+        .find(|(kind, _)| *kind == k)
+        .map_or(0.0, |(_, e)| *e)
+}
+
+/// Side-to-side distance of sample `s` (mm).
+fn distance_mm(s: &StretchSample) -> f64 {
+    1e3 * s.distance
+}
+
+/// The CSV: per sample the extension, distance and pull of the main run, the energy of each
+/// of `kinds`, and the distance and pull of the Coulomb-consistent run.
+fn pull_table(result: &RibStretchRun, coulomb: &RibStretchRun, kinds: &[TermKind]) -> Table {
     let mut columns = vec![
         "extension_m".to_string(),
         "distance_m".to_string(),
@@ -125,64 +163,78 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     columns.push("coulomb_distance_m".to_string());
     columns.push("coulomb_force_n".to_string());
     let mut data = Table::new(&columns);
-    let energy = |s: &StretchSample, k| {
-        s.energies
-            .iter()
-            .find(|(kind, _)| *kind == k)
-            .map_or(0.0, |(_, e)| *e)
-    };
     for (s, c) in result.samples.iter().zip(&coulomb.samples) {
         let mut row = vec![s.extension, s.distance, s.force];
-        row.extend(kinds.iter().map(|&k| energy(s, k)));
+        row.extend(kinds.iter().map(|&k| stored_energy(s, k)));
         row.extend([c.distance, c.force]);
         data.push_row(row);
     }
-    let mm = |s: &StretchSample| 1e3 * s.distance;
-    let force = LineChart::new("Rib stretch")
-        .x_label("side-to-side distance (mm)")
-        .y_label("pull on the side clamp (N)")
-        .series(Series::line_markers(
-            "paper's friction update (dt = 1 ms)",
-            result.samples.iter().map(|s| (mm(s), s.force)),
-        ))
-        .series(Series::line_markers(
-            "Coulomb-consistent friction (return mapping)",
-            coulomb.samples.iter().map(|s| (mm(s), s.force)),
-        ));
-    // What opposes the stretch: each term's share of the elastic energy stored over a
-    // sliding window of the pull (terms that release energy count as zero).
-    let window = 2;
-    let marginal: Vec<(f64, Vec<f64>)> = result
+    data
+}
+
+/// What opposes the stretch: each term's share of the elastic energy stored over a sliding
+/// window of `window` sample steps of the pull (terms that release energy count as zero), at
+/// the window centres (mm), shares in the order of `kinds`.
+fn energy_shares(
+    result: &RibStretchRun,
+    kinds: &[TermKind],
+    window: usize,
+) -> Vec<(f64, Vec<f64>)> {
+    result
         .samples
         .windows(window + 1)
         .map(|w| {
             let (a, b) = (&w[0], &w[window]);
             let gains: Vec<f64> = kinds
                 .iter()
-                .map(|&k| (energy(b, k) - energy(a, k)).max(0.0))
+                .map(|&k| (stored_energy(b, k) - stored_energy(a, k)).max(0.0))
                 .collect();
             let total: f64 = gains.iter().sum();
             let shares = gains
                 .iter()
                 .map(|g| if total > 0.0 { g / total } else { 0.0 })
                 .collect();
-            (0.5 * (mm(a) + mm(b)), shares)
+            (0.5 * (distance_mm(a) + distance_mm(b)), shares)
         })
-        .collect();
-    let mut shares = LineChart::new("Share of the energy stored over each 1 mm of pull")
+        .collect()
+}
+
+/// Left: the pull of both runs against the distance; right: the energy shares.
+fn save_charts(
+    ctx: &FigureContext,
+    result: &RibStretchRun,
+    coulomb: &RibStretchRun,
+    kinds: &[TermKind],
+    shares: &[(f64, Vec<f64>)],
+) -> anyhow::Result<()> {
+    let force = LineChart::new("Rib stretch")
+        .x_label("side-to-side distance (mm)")
+        .y_label("pull on the side clamp (N)")
+        .series(Series::line_markers(
+            "paper's friction update (dt = 1 ms)",
+            result.samples.iter().map(|s| (distance_mm(s), s.force)),
+        ))
+        .series(Series::line_markers(
+            "Coulomb-consistent friction (return mapping)",
+            coulomb.samples.iter().map(|s| (distance_mm(s), s.force)),
+        ));
+    let mut share_chart = LineChart::new("Share of the energy stored over each 1 mm of pull")
         .x_label("side-to-side distance (mm)")
         .y_label("fraction");
     for (j, &k) in kinds.iter().enumerate() {
-        shares = shares.series(Series::line(
+        share_chart = share_chart.series(Series::line(
             kind_name(k),
-            marginal.iter().map(|(d, sh)| (*d, sh[j])),
+            shares.iter().map(|(d, sh)| (*d, sh[j])),
         ));
     }
-    save_side_by_side(&force, &shares, &ctx.out_dir, ctx.name)?;
+    save_side_by_side(&force, &share_chart, &ctx.out_dir, ctx.name)
+}
 
-    // The dominant term along the pull, as runs of windows.
+/// The dominant term along the pull, as runs of windows: (term name, first and last window
+/// centre in mm).
+fn dominant_regimes(shares: &[(f64, Vec<f64>)], kinds: &[TermKind]) -> Vec<(String, f64, f64)> {
     let mut regimes: Vec<(String, f64, f64)> = Vec::new();
-    for (d, sh) in &marginal {
+    for (d, sh) in shares {
         let Some((j, _)) = sh
             .iter()
             .enumerate()
@@ -197,6 +249,16 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             _ => regimes.push((name, *d, *d)),
         }
     }
+    regimes
+}
+
+/// Key numbers of the main run (settling, pull at start and end, regimes, slips, cost), of
+/// the Coulomb-consistent run, and the stiffening along the pull.
+fn summary(
+    result: &RibStretchRun,
+    coulomb: &RibStretchRun,
+    regimes: &[(String, f64, f64)],
+) -> Vec<(String, String)> {
     let first = &result.samples[0];
     let last = result.samples.last().expect("at least the start sample");
     let slipped: usize = result.samples.iter().map(|s| s.slipped).sum();
@@ -207,7 +269,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         ),
         (
             "distance at start, end of pull".to_string(),
-            format!("{:.1} mm, {:.1} mm", mm(first), mm(last)),
+            format!("{:.1} mm, {:.1} mm", distance_mm(first), distance_mm(last)),
         ),
         (
             "pull at start, end".to_string(),
@@ -240,7 +302,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             "settled width ratio {:.3}; pull at the end {:.3e} N at {:.1} mm (paper's update: {:.3e} N); largest pull {:.3e} N; {} Newton iterations, {:.1} s; {} pull steps with an unresolved return mapping",
             coulomb.settled_width_ratio,
             coulomb_last.force,
-            mm(coulomb_last),
+            distance_mm(coulomb_last),
             last.force,
             coulomb.samples.iter().map(|s| s.force).fold(f64::MIN, f64::max),
             coulomb.newton_iterations,
@@ -248,24 +310,13 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             coulomb.friction_unresolved
         ),
     ));
-    if let Some(stiff) = stiffness_ratio(&result) {
+    if let Some(stiff) = stiffness_ratio(result) {
         summary.push((
             "stiffness last fifth / first fifth of the pull".to_string(),
             format!("{stiff:.1}"),
         ));
     }
-    Ok(FigureOutput {
-        summary,
-        config: serde_json::json!({
-            "pattern": "rib 2x2", "width": experiment.width, "height": experiment.height,
-            "yarn": "Table 1 sweater (R = 0.75 mm), loop width 3 mm, no gravity",
-            "damping_alpha": sim_persistent::experiment::ALPHA,
-            "dt_s": experiment.settings.dt, "settle_time_s": experiment.settings.settle_time,
-            "clamp_speed_m_per_s": experiment.speed, "extension_m": experiment.extension,
-            "newton_abs_tol_n": experiment.settings.newton_abs_tol,
-        }),
-        data,
-    })
+    summary
 }
 
 /// Secant stiffness of the last fifth of the samples over that of the first fifth.

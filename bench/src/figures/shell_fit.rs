@@ -3,9 +3,11 @@
 //! test), force and compression against stretch, with the fit errors in the legend.
 
 use std::path::PathBuf;
+
+use indicatif::ProgressBar;
 use yarn_pattern::direction::Direction;
 
-use shell_fem::fit::{FitConfig, Weighting, fit, initial_guess, targets};
+use shell_fem::fit::{FitConfig, FitResult, Weighting, fit, initial_guess, targets};
 use shell_fem::material::{Material, Model};
 use shell_fem::measurements::{BinOptions, Measurement, read_stitch_csv};
 use shell_fem::swatch::{StretchTest, SwatchConfig};
@@ -46,6 +48,9 @@ pub fn acrylic_measurements(bins: usize) -> anyhow::Result<Vec<Measurement>> {
     ])
 }
 
+/// Fitted force (N) and compression at each measured stretch: `(s, force, compression)`.
+type FittedCurve = Vec<(f64, f64, f64)>;
+
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let (nx, ny, max_iterations) = if ctx.quick {
         (10, 6, 60)
@@ -59,9 +64,30 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         ..SwatchConfig::default()
     };
     let tg = targets(&measurements, 6);
+    let cfg = fit_config(&swatch, max_iterations);
+    let progress = ctx.progress(measurements.len() as u64 + 1, "LM fit");
+    let result = fit(&tg, initial_guess(&measurements, swatch.width), &cfg, None)?;
+    progress.inc(1);
+    let (data, fitted) = simulate_fit(&swatch, &result, &measurements, &progress)?;
+    save_charts(ctx, &measurements, &fitted, &result)?;
+    Ok(FigureOutput {
+        summary: summary(&result),
+        config: serde_json::json!({
+            "swatch": {"length_m": swatch.length, "width_m": swatch.width, "nx": nx, "ny": ny},
+            "weighting": "relative", "fixed": ["kss"], "targets_per_direction": 6, "bins": 24,
+            "max_iterations": max_iterations,
+            "fitted_params_n_per_m": result.params, "initial_params_n_per_m": result.initial,
+        }),
+        data,
+    })
+}
+
+/// The fit on `swatch`: relative weighting, `kss` held (no bias test, so it is not
+/// identifiable), converged fully within `max_iterations`.
+fn fit_config(swatch: &SwatchConfig, max_iterations: usize) -> FitConfig {
     let mut fixed = [false; shell_fem::InPlaneParams::LEN];
     fixed[3] = true; // no bias test: kss is not identifiable
-    let cfg = FitConfig {
+    FitConfig {
         swatch: swatch.clone(),
         weighting: Weighting::Relative,
         fixed,
@@ -71,10 +97,17 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         cost_rtol: 1e-15,
         step_tol: 1e-11,
         ..FitConfig::default()
-    };
-    let progress = ctx.progress(measurements.len() as u64 + 1, "LM fit");
-    let result = fit(&tg, initial_guess(&measurements, swatch.width), &cfg, None)?;
-    progress.inc(1);
+    }
+}
+
+/// The fitted shell stretched to every measured point of each measurement (one stretch test
+/// per direction): the CSV, and the fitted curve of each measurement.
+fn simulate_fit(
+    swatch: &SwatchConfig,
+    result: &FitResult,
+    measurements: &[Measurement],
+    progress: &ProgressBar,
+) -> anyhow::Result<(Table, Vec<FittedCurve>)> {
     let mut data = Table::new(&[
         "direction_deg",
         "s",
@@ -83,15 +116,10 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         "force_fit_n",
         "compression_fit",
     ]);
-    let mut force_chart = LineChart::new("Stretch force (10 cm × 6 cm swatch)")
-        .x_label("stretch s")
-        .y_label("force f_s (N)");
-    let mut comp_chart = LineChart::new("Orthogonal compression at mid-length")
-        .x_label("stretch s")
-        .y_label("compression c");
-    for m in &measurements {
+    let mut curves = Vec::with_capacity(measurements.len());
+    for m in measurements {
         let mut test = StretchTest::new(
-            &swatch,
+            swatch,
             Material {
                 params: result.params,
                 model: Model::Augmented,
@@ -111,6 +139,27 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             ]);
             fitted.push((p.s, sim.force, sim.compression));
         }
+        curves.push(fitted);
+        progress.inc(1);
+    }
+    Ok((data, curves))
+}
+
+/// Force (left) and compression (right) against stretch: the measurements as markers, the
+/// fitted curves as lines with their errors (paper metric) in the legend.
+fn save_charts(
+    ctx: &FigureContext,
+    measurements: &[Measurement],
+    fitted: &[FittedCurve],
+    result: &FitResult,
+) -> anyhow::Result<()> {
+    let mut force_chart = LineChart::new("Stretch force (10 cm × 6 cm swatch)")
+        .x_label("stretch s")
+        .y_label("force f_s (N)");
+    let mut comp_chart = LineChart::new("Orthogonal compression at mid-length")
+        .x_label("stretch s")
+        .y_label("compression c");
+    for (m, fitted) in measurements.iter().zip(fitted) {
         let err = result
             .errors
             .directions
@@ -142,9 +191,12 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 ),
                 fitted.iter().map(|f| (f.0, f.2)),
             ));
-        progress.inc(1);
     }
-    save_side_by_side(&force_chart, &comp_chart, &ctx.out_dir, ctx.name)?;
+    save_side_by_side(&force_chart, &comp_chart, &ctx.out_dir, ctx.name)
+}
+
+/// Key numbers: the fit errors in both metrics, overall and per direction, and the fit cost.
+fn summary(result: &FitResult) -> Vec<(String, String)> {
     let e = &result.errors;
     let mut summary = vec![
         (
@@ -186,14 +238,5 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             ),
         ));
     }
-    Ok(FigureOutput {
-        summary,
-        config: serde_json::json!({
-            "swatch": {"length_m": swatch.length, "width_m": swatch.width, "nx": nx, "ny": ny},
-            "weighting": "relative", "fixed": ["kss"], "targets_per_direction": 6, "bins": 24,
-            "max_iterations": max_iterations,
-            "fitted_params_n_per_m": result.params, "initial_params_n_per_m": result.initial,
-        }),
-        data,
-    })
+    summary
 }

@@ -64,6 +64,46 @@ enum LineSearch {
     Failed { backtracks: usize },
 }
 
+/// How one Newton iteration ends.
+enum Iteration {
+    /// Take the step `alpha · dx`, found with diagonal shift `mu`.
+    Step { alpha: f64, mu: f64 },
+    /// End the run with this termination and failure detail.
+    Stop(Termination, String),
+}
+
+/// The energy side of the current iterate.
+struct Iterate {
+    /// Energy at the iterate.
+    energy: f64,
+    /// Whether the energy, gradient (and Hessian, when assembled) are finite.
+    finite: bool,
+    /// Rounding level of the energy (`energy_noise_tolerance · Σ|eᵢ|`).
+    noise: f64,
+    /// Whether the constraints hold (always, unconstrained).
+    feasible: bool,
+}
+
+/// The state of one Newton run: the problem and back end, the scratch vectors and the
+/// report being filled.
+struct NewtonRun<'a, P: Problem + ?Sized, S: NewtonSystem> {
+    problem: &'a P,
+    settings: &'a NewtonSettings,
+    asm: &'a mut Assembler,
+    system: &'a mut S,
+    /// The Newton step.
+    dx: Vec<f64>,
+    /// Line-search scratch.
+    x_trial: Vec<f64>,
+    report: NewtonReport,
+    /// The first stationarity residual (the scale of the relative tolerance).
+    residual0: Option<f64>,
+    /// Shift that worked in the previous iteration; the next escalation starts near it.
+    last_mu: f64,
+    /// Termination at the iteration limit.
+    limit: Termination,
+}
+
 /// The Newton loop shared by [`super::NewtonSolver`] and [`crate::ConstrainedNewtonSolver`].
 pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
     problem: &P,
@@ -73,10 +113,45 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
     system: &mut S,
     initial_constraint_violation: f64,
 ) -> Result<NewtonReport, SolveError> {
-    let n = x.len();
-    let mut dx = vec![0.0; n];
-    let mut x_trial = vec![0.0; n];
-    let mut report = NewtonReport {
+    let mut run = NewtonRun {
+        problem,
+        settings,
+        asm,
+        system,
+        dx: vec![0.0; x.len()],
+        x_trial: vec![0.0; x.len()],
+        report: empty_report(initial_constraint_violation),
+        residual0: None,
+        last_mu: 0.0,
+        limit: if settings.accept_iteration_limit {
+            Termination::IterationLimit
+        } else {
+            Termination::MaxIterations
+        },
+    };
+    loop {
+        let iterate = run.evaluate(x)?;
+        if !iterate.finite {
+            return finish(run.report, Termination::NonFinite, String::new());
+        }
+        let residual_pre = run.system.residual_before_solve(run.asm.last_gradient());
+        if let Some(r) = residual_pre
+            && let Some(stop) = run.check_residual(r, iterate.feasible)
+        {
+            return finish(run.report, stop, String::new());
+        }
+        match run.regularized_step(x, &iterate, residual_pre.is_some())? {
+            Iteration::Step { alpha, mu } => run.take_step(x, alpha, mu),
+            Iteration::Stop(termination, detail) => {
+                return finish(run.report, termination, detail);
+            }
+        }
+    }
+}
+
+/// A report with no iterations yet.
+fn empty_report(initial_constraint_violation: f64) -> NewtonReport {
+    NewtonReport {
         iterations: 0,
         energy_history: Vec::new(),
         residual_history: Vec::new(),
@@ -88,106 +163,116 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
         linear_iterations: Vec::new(),
         timings: NewtonTimings::default(),
         termination: Termination::MaxIterations,
-    };
-    let mut residual0 = None;
-    // Shift that worked in the previous iteration; the next escalation starts near it.
-    let mut last_mu: f64 = 0.0;
-    let finish = |mut report: NewtonReport, termination: Termination, detail: String| {
-        report.termination = termination;
-        let report = Box::new(report);
-        match termination {
-            Termination::GradientTolerance
-            | Termination::StepTolerance
-            | Termination::IterationLimit => Ok(*report),
-            Termination::MaxIterations => Err(SolveError::NotConverged(report)),
-            Termination::LineSearchFailed => Err(SolveError::LineSearchFailed(report)),
-            Termination::NonFinite => Err(SolveError::NonFinite(report)),
-            Termination::FactorizationFailed => {
-                Err(SolveError::FactorizationFailed { report, detail })
-            }
-        }
-    };
+    }
+}
 
-    let limit = if settings.accept_iteration_limit {
-        Termination::IterationLimit
-    } else {
-        Termination::MaxIterations
-    };
-    loop {
+/// Ends the run: the report with its termination, as `Ok` for the successful terminations
+/// and as the matching [`SolveError`] otherwise.
+fn finish(
+    mut report: NewtonReport,
+    termination: Termination,
+    detail: String,
+) -> Result<NewtonReport, SolveError> {
+    report.termination = termination;
+    let report = Box::new(report);
+    match termination {
+        Termination::GradientTolerance
+        | Termination::StepTolerance
+        | Termination::IterationLimit => Ok(*report),
+        Termination::MaxIterations => Err(SolveError::NotConverged(report)),
+        Termination::LineSearchFailed => Err(SolveError::LineSearchFailed(report)),
+        Termination::NonFinite => Err(SolveError::NonFinite(report)),
+        Termination::FactorizationFailed => Err(SolveError::FactorizationFailed { report, detail }),
+    }
+}
+
+impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
+    /// Assembles energy, gradient and (unless only the residual is left to compute at the
+    /// iteration limit) the Hessian at `x`, and records the energy and constraint violation.
+    fn evaluate(&mut self, x: &[f64]) -> Result<Iterate, SolveError> {
+        let settings = self.settings;
         // At the iteration limit the residual is all that is left to compute: skip the
         // Hessian when the system can give the residual without a solve.
-        let last = report.iterations >= settings.max_iterations && system.residual_without_solve();
+        let last = self.report.iterations >= settings.max_iterations
+            && self.system.residual_without_solve();
         let assembly_start = std::time::Instant::now();
         let (energy, finite) = if last {
-            let (energy, gradient) = asm.gradient(problem, x)?;
+            let (energy, gradient) = self.asm.gradient(self.problem, x)?;
             (
                 energy,
                 energy.is_finite() && gradient.iter().all(|g| g.is_finite()),
             )
         } else {
-            let assembled = asm.assemble(problem, x, settings.project_spd)?;
+            let assembled = self.asm.assemble(self.problem, x, settings.project_spd)?;
             let energy = assembled.energy;
             let finite = energy.is_finite()
                 && assembled.gradient.iter().all(|g| g.is_finite())
                 && assembled.hessian.val().iter().all(|h| h.is_finite());
             (energy, finite)
         };
-        report.timings.assembly += assembly_start.elapsed().as_secs_f64();
-        let noise = settings.energy_noise_tolerance * asm.energy_abs_sum();
-        report.energy_history.push(energy);
-        let violation = system.violation(x, settings);
+        self.report.timings.assembly += assembly_start.elapsed().as_secs_f64();
+        let noise = settings.energy_noise_tolerance * self.asm.energy_abs_sum();
+        self.report.energy_history.push(energy);
+        let violation = self.system.violation(x, settings);
         let feasible = violation.is_none_or(|(ok, _)| ok);
         if let Some((_, v)) = violation {
-            report.constraint_violation_history.push(v);
+            self.report.constraint_violation_history.push(v);
         }
-        if !finite {
-            return finish(report, Termination::NonFinite, String::new());
-        }
-        let converged = |r: f64, r0: f64| {
-            feasible
-                && r <= settings
-                    .gradient_abs_tol
-                    .max(settings.gradient_rel_tol * r0)
-        };
+        Ok(Iterate {
+            energy,
+            finite,
+            noise,
+            feasible,
+        })
+    }
 
-        let residual_pre = system.residual_before_solve(asm.last_gradient());
-        if let Some(r) = residual_pre {
-            report.residual_history.push(r);
-            let r0 = *residual0.get_or_insert(r);
-            if converged(r, r0) {
-                return finish(report, Termination::GradientTolerance, String::new());
-            }
-            if report.iterations >= settings.max_iterations {
-                return finish(report, limit, String::new());
-            }
+    /// Records the stationarity residual `r` of the iterate; the termination if it passes the
+    /// gradient test (feasible iterates only) or the iteration limit is reached.
+    fn check_residual(&mut self, r: f64, feasible: bool) -> Option<Termination> {
+        let settings = self.settings;
+        self.report.residual_history.push(r);
+        let r0 = *self.residual0.get_or_insert(r);
+        if feasible
+            && r <= settings
+                .gradient_abs_tol
+                .max(settings.gradient_rel_tol * r0)
+        {
+            return Some(Termination::GradientTolerance);
         }
+        (self.report.iterations >= settings.max_iterations).then_some(self.limit)
+    }
 
-        // Solve and line-search, escalating the diagonal shift on failure.
-        let scale = diagonal_scale(asm);
-        let base =
-            (settings.regularization_initial * scale).max(last_mu / settings.regularization_growth);
+    /// Solves for the Newton step and line-searches along it, escalating the diagonal shift
+    /// on failure; checks the residual from the first solve unless `residual_checked`.
+    fn regularized_step(
+        &mut self,
+        x: &[f64],
+        iterate: &Iterate,
+        mut residual_checked: bool,
+    ) -> Result<Iteration, SolveError> {
+        let settings = self.settings;
+        let scale = diagonal_scale(self.asm);
+        let base = (settings.regularization_initial * scale)
+            .max(self.last_mu / settings.regularization_growth);
         let mut failure = (
             Termination::FactorizationFailed,
             String::from("no attempt made"),
         );
-        let mut residual_checked = residual_pre.is_some();
-        let mut accepted = None;
         for attempt in 0..=settings.max_regularization_attempts {
             let mu = match attempt {
                 0 => 0.0,
                 k => base * settings.regularization_growth.powi(k as i32 - 1),
             };
             let solve_start = std::time::Instant::now();
-            let solved = system.solve(asm, x, mu, &mut dx);
-            report.timings.linear_solve += solve_start.elapsed().as_secs_f64();
+            let solved = self.system.solve(self.asm, x, mu, &mut self.dx);
+            self.report.timings.linear_solve += solve_start.elapsed().as_secs_f64();
             let residual = match solved {
                 Ok(r) => r,
                 Err(SystemFailure::Fatal(msg)) => {
-                    return finish(
-                        report,
+                    return Ok(Iteration::Stop(
                         Termination::FactorizationFailed,
                         format!("{msg} (shift μ = {mu:.3e})"),
-                    );
+                    ));
                 }
                 Err(SystemFailure::Retry(msg)) => {
                     failure = (
@@ -199,75 +284,79 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
             };
             if !residual_checked {
                 residual_checked = true;
-                report.residual_history.push(residual);
-                let r0 = *residual0.get_or_insert(residual);
-                if converged(residual, r0) {
-                    return finish(report, Termination::GradientTolerance, String::new());
-                }
-                if report.iterations >= settings.max_iterations {
-                    return finish(report, limit, String::new());
+                if let Some(stop) = self.check_residual(residual, iterate.feasible) {
+                    return Ok(Iteration::Stop(stop, String::new()));
                 }
             }
-            if mu == 0.0 && feasible && inf_norm(&dx) <= settings.step_tol {
-                return finish(report, Termination::StepTolerance, String::new());
+            if mu == 0.0 && iterate.feasible && inf_norm(&self.dx) <= settings.step_tol {
+                return Ok(Iteration::Stop(Termination::StepTolerance, String::new()));
             }
-            let slope: f64 = asm
-                .last_gradient()
-                .iter()
-                .zip(&dx)
-                .map(|(g, d)| g * d)
-                .sum();
-            if !settings.line_search {
-                // Full step (within the admissible bound), no energy evaluation.
-                let alpha_max = problem.max_step(x, &dx);
-                if alpha_max.is_nan() || alpha_max <= 0.0 {
-                    failure = (Termination::LineSearchFailed, String::new());
-                    continue;
-                }
-                accepted = Some((alpha_max.min(1.0), mu));
-                break;
-            }
-            let search_start = std::time::Instant::now();
-            let searched = line_search(
-                problem,
-                asm,
-                x,
-                &dx,
-                energy,
-                slope,
-                noise,
-                settings,
-                &mut x_trial,
-            );
-            report.timings.line_search += search_start.elapsed().as_secs_f64();
-            match searched? {
-                LineSearch::Accepted { alpha, backtracks } => {
-                    report.line_search_backtracks += backtracks;
-                    accepted = Some((alpha, mu));
-                    break;
-                }
-                LineSearch::Failed { backtracks } => {
-                    report.line_search_backtracks += backtracks;
-                    failure = (Termination::LineSearchFailed, String::new());
-                }
+            match self.step_length(x, iterate)? {
+                Some(alpha) => return Ok(Iteration::Step { alpha, mu }),
+                None => failure = (Termination::LineSearchFailed, String::new()),
             }
         }
-        let Some((alpha, mu)) = accepted else {
-            return finish(report, failure.0, failure.1);
-        };
-        last_mu = mu;
+        Ok(Iteration::Stop(failure.0, failure.1))
+    }
+
+    /// The step length along `dx`: the full admissible step without a line search, else the
+    /// backtracking line search's; `None` when no step is acceptable.
+    fn step_length(&mut self, x: &[f64], iterate: &Iterate) -> Result<Option<f64>, SolveError> {
+        let slope: f64 = self
+            .asm
+            .last_gradient()
+            .iter()
+            .zip(&self.dx)
+            .map(|(g, d)| g * d)
+            .sum();
+        if !self.settings.line_search {
+            // Full step (within the admissible bound), no energy evaluation.
+            let alpha_max = self.problem.max_step(x, &self.dx);
+            if alpha_max.is_nan() || alpha_max <= 0.0 {
+                return Ok(None);
+            }
+            return Ok(Some(alpha_max.min(1.0)));
+        }
+        let search_start = std::time::Instant::now();
+        let searched = line_search(
+            self.problem,
+            self.asm,
+            x,
+            &self.dx,
+            iterate.energy,
+            slope,
+            iterate.noise,
+            self.settings,
+            &mut self.x_trial,
+        );
+        self.report.timings.line_search += search_start.elapsed().as_secs_f64();
+        Ok(match searched? {
+            LineSearch::Accepted { alpha, backtracks } => {
+                self.report.line_search_backtracks += backtracks;
+                Some(alpha)
+            }
+            LineSearch::Failed { backtracks } => {
+                self.report.line_search_backtracks += backtracks;
+                None
+            }
+        })
+    }
+
+    /// Moves `x` by `alpha · dx` and records the step taken with shift `mu`.
+    fn take_step(&mut self, x: &mut [f64], alpha: f64, mu: f64) {
+        self.last_mu = mu;
         // Entries with a zero step (the Dirichlet DOFs) are left bit-for-bit untouched.
-        for (xi, &di) in x.iter_mut().zip(&dx) {
+        for (xi, &di) in x.iter_mut().zip(&self.dx) {
             if di != 0.0 {
                 *xi += alpha * di;
             }
         }
-        report.iterations += 1;
-        report.step_lengths.push(alpha);
-        report.regularizations.push(mu);
-        report
+        self.report.iterations += 1;
+        self.report.step_lengths.push(alpha);
+        self.report.regularizations.push(mu);
+        self.report
             .linear_iterations
-            .push(system.last_linear_iterations());
+            .push(self.system.last_linear_iterations());
     }
 }
 
