@@ -13,7 +13,8 @@
 //! | [`material_bending`] | bending with rest curvature in the material frame, with twist DOFs | seed 002 Eq. 6; Bergou 2010 |
 //! | [`twist`] | twist with reference twist of transported frames | Bergou 2008/2010 |
 //! | [`contact`] | segment closest points; two-phase barrier contact with Simpson quadrature | seed 002 Eq. 7 |
-//! | [`hyperdual`] | exact second derivatives by forward differentiation (used where closed forms are impractical) | Fike & Alonso 2011 |
+//! | [`hyperdual`] | exact second derivatives by forward differentiation (the reference the jets are checked against) | Fike & Alonso 2011 |
+//! | [`jet`] | value, gradient and Hessian in one pass (second-order forward mode), for the material-frame terms | — |
 //! | [`spd`] | projection of small symmetric Hessians onto the PSD cone | — |
 //! | [`validation`] | circle and helix references with closed-form bending energy | — |
 //! | [`fd`] | the finite-difference derivative-check harness used by every crate | — |
@@ -26,6 +27,7 @@ pub mod contact;
 pub mod fd;
 pub mod geometry;
 pub mod hyperdual;
+pub mod jet;
 pub mod material_bending;
 pub mod spd;
 pub mod stencil;

@@ -11,11 +11,18 @@
 //! configuration and transports them onto the current edges, so `W(q)` is a smooth function of
 //! `(x₀, x₁, x₂, θᵉ, θᶠ)`; the reference twist continues from its base value
 //! (`reference_twist`, e.g. the `*RefT` block of a `.pyp` tile) without 2π jumps. Exact
-//! derivatives by hyper-dual differentiation.
+//! derivatives in one pass of jets ([`crate::jet`]): each edge's transported reference frame is
+//! a `Jet<3>` in its edge, the reference twist a `Jet<6>` in both edges, and the energy a
+//! `Jet<8>` in `(e, f, θᵉ, θᶠ)` (see [`crate::material_bending`]); the same energy over any
+//! [`Real`] ([`Twist::energy_generic`]) is the hyper-dual reference of the tests.
 
 use crate::geometry::Frame;
-use crate::hyperdual::{GenericEnergy, Real, Vec3};
-use crate::material_bending::{transport, transported_material_frame};
+use crate::hyperdual::{Real, Vec3};
+use crate::jet::Jet;
+use crate::material_bending::{
+    edge_jet, edges, embed3, pull_back, transport, transported_material_frame,
+};
+use crate::{Evaluation, Stencil};
 use nalgebra::SVector;
 use std::f64::consts::TAU;
 
@@ -44,35 +51,76 @@ impl Twist {
     fn transport_angle<T: Real>(&self, e: &Vec3<T>, f: &Vec3<T>) -> T {
         let (te, d1e, _) = transported_material_frame(e, &self.reference.0, T::cst(0.0));
         let (tf, d1f, _) = transported_material_frame(f, &self.reference.1, T::cst(0.0));
-        let moved = transport(&d1e, &te, &tf);
-        signed_angle(&moved, &d1f, &tf)
+        angle_across(&te, &d1e, &tf, &d1f)
+    }
+
+    /// The reference twist from the transport angle at the current edges, continued from the
+    /// base reference twist without 2π jumps.
+    fn reference_twist_from<T: Real>(&self, angle: T) -> T {
+        let base = self.transport_angle::<f64>(
+            &Vec3::cst(&self.reference.0.t),
+            &Vec3::cst(&self.reference.1.t),
+        );
+        let wraps = ((angle.value() - base) / TAU).round();
+        angle + T::cst(self.reference_twist - base - wraps * TAU)
     }
 
     /// Total twist `m = θᶠ − θᵉ + m_ref` over any [`Real`].
     fn twist_generic<T: Real>(&self, q: &[T; 11]) -> T {
         let x = |k: usize| Vec3([q[3 * k], q[3 * k + 1], q[3 * k + 2]]);
         let (e, f) = (x(1) - x(0), x(2) - x(1));
-        let base = self.transport_angle::<f64>(
-            &Vec3::cst(&self.reference.0.t),
-            &Vec3::cst(&self.reference.1.t),
-        );
-        let angle = self.transport_angle(&e, &f);
-        // Continue from the base reference twist without 2π jumps.
-        let wraps = ((angle.value() - base) / TAU).round();
-        let m_ref = angle + T::cst(self.reference_twist - base - wraps * TAU);
-        q[10] - q[9] + m_ref
+        q[10] - q[9] + self.reference_twist_from(self.transport_angle(&e, &f))
     }
 
     /// Current total twist `m = θᶠ − θᵉ + m_ref` (rad).
     pub fn twist(&self, q: &SVector<f64, 11>) -> f64 {
         self.twist_generic(&std::array::from_fn(|k| q[k]))
     }
+
+    /// `k_t (m − m̄)² / (L_a + L_b)` over any [`Real`] (the hyper-dual reference).
+    pub fn energy_generic<T: Real>(&self, q: &[T; 11]) -> T {
+        let m = self.twist_generic(q) - T::cst(self.rest_twist);
+        m * m * T::cst(self.weight())
+    }
+
+    fn weight(&self) -> f64 {
+        self.stiffness / (self.rest_lengths.0 + self.rest_lengths.1)
+    }
+
+    /// The energy as a jet in `(e, f, θᵉ, θᶠ)`.
+    fn energy_jet(&self, q: &SVector<f64, 11>) -> Jet<8> {
+        let (e, f) = edges(q);
+        let frame = |edge: &nalgebra::Vector3<f64>, reference: &Frame, map| {
+            let (t, d1, _) = transported_material_frame(
+                &edge_jet::<3>(edge, [0, 1, 2]),
+                reference,
+                Jet::cst(0.0),
+            );
+            (embed3(&t, map), embed3(&d1, map))
+        };
+        let (te, d1e) = frame(&e, &self.reference.0, [0, 1, 2]);
+        let (tf, d1f) = frame(&f, &self.reference.1, [3, 4, 5]);
+        let m_ref = self
+            .reference_twist_from(angle_across::<Jet<6>>(&te, &d1e, &tf, &d1f))
+            .embed([0, 1, 2, 3, 4, 5]);
+        let m = Jet::var(7, q[10]) - Jet::var(6, q[9]) + m_ref - Jet::cst(self.rest_twist);
+        (m * m).scale(self.weight())
+    }
 }
 
-impl GenericEnergy<11> for Twist {
-    /// `k_t (m − m̄)² / (L_a + L_b)`.
-    fn energy_generic<T: Real>(&self, q: &[T; 11]) -> T {
-        let m = self.twist_generic(q) - T::cst(self.rest_twist);
-        m * m * T::cst(self.stiffness / (self.rest_lengths.0 + self.rest_lengths.1))
+/// The signed angle about `tf` from `d1e` transported across the vertex (from `te` to `tf`)
+/// to `d1f`.
+fn angle_across<T: Real>(te: &Vec3<T>, d1e: &Vec3<T>, tf: &Vec3<T>, d1f: &Vec3<T>) -> T {
+    let moved = transport(d1e, te, tf);
+    signed_angle(&moved, d1f, tf)
+}
+
+impl Stencil<11> for Twist {
+    fn energy(&self, q: &SVector<f64, 11>) -> f64 {
+        self.energy_generic(&std::array::from_fn(|k| q[k]))
+    }
+
+    fn eval(&self, q: &SVector<f64, 11>) -> Evaluation<11> {
+        pull_back(&self.energy_jet(q))
     }
 }

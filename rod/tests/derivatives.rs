@@ -198,3 +198,87 @@ proptest! {
         assert_stencil_derivatives(&twist, &q, L);
     }
 }
+
+/// The adapted vertex moved away from its reference frames: each position displaced by up to
+/// `0.6 L` (edges turn by up to about a radian against the stored frames, as in a deformed
+/// periodic tile, whose frames stay at rest).
+fn deformed(q: &SVector<f64, 11>, d: [Vector3<f64>; 3]) -> SVector<f64, 11> {
+    let mut q = *q;
+    for (k, dk) in d.iter().enumerate() {
+        for i in 0..3 {
+            q[3 * k + i] += dk[i];
+        }
+    }
+    q
+}
+
+/// The jet evaluation against the hyper-dual one of the same energy: both exact, so they
+/// agree to round-off.
+fn assert_matches_hyper_dual(
+    eval: rod::Evaluation<11>,
+    reference: (f64, SVector<f64, 11>, nalgebra::SMatrix<f64, 11, 11>),
+) {
+    let (e, g, h) = reference;
+    let tol = |x: f64, scale: f64| 1e-9 * x.abs().max(scale);
+    assert!(
+        (eval.energy - e).abs() <= tol(e, 1e-30),
+        "energy {} vs {e}",
+        eval.energy
+    );
+    let (gs, hs) = (g.amax(), h.amax());
+    for k in 0..11 {
+        assert!((eval.gradient[k] - g[k]).abs() <= tol(g[k], gs), "g[{k}]");
+        for l in 0..11 {
+            assert!(
+                (eval.hessian[(k, l)] - h[(k, l)]).abs() <= tol(h[(k, l)], hs),
+                "h[{k}][{l}]: {} vs {}",
+                eval.hessian[(k, l)],
+                h[(k, l)]
+            );
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(config(128))]
+
+    /// Material bending and twist away from their reference frames: jets equal the
+    /// hyper-dual derivatives, and both pass the finite-difference check.
+    #[test]
+    fn material_frame_terms_far_from_their_reference_frames(
+        x1 in v3(L), a in v3(1.0), b in v3(1.0), hint_e in v3(1.0), hint_f in v3(1.0),
+        la in 0.3*L..2.0*L, lb in 0.3*L..2.0*L, th_e in -3.0..3.0f64, th_f in -3.0..3.0f64,
+        d0 in v3(0.6 * L), d1 in v3(0.6 * L), d2 in v3(0.6 * L),
+        k1 in -1.0..1.0f64, k2 in -1.0..1.0f64, reference_twist in -7.0..7.0f64,
+    ) {
+        use rod::Stencil;
+        use rod::hyperdual::gradient_and_hessian;
+        let vertex = adapted_vertex(x1, a, b, hint_e, hint_f, la, lb, th_e, th_f);
+        prop_assume!(vertex.is_some());
+        let (q, reference) = vertex.unwrap();
+        let q = deformed(&q, [d0, d1, d2]);
+        let (e, f) = (q.fixed_rows::<3>(3) - q.fixed_rows::<3>(0), q.fixed_rows::<3>(6) - q.fixed_rows::<3>(3));
+        // Stay away from folds and from edges turned against their frames (transport is
+        // singular for antiparallel tangents).
+        prop_assume!(e.norm() > 0.2 * L && f.norm() > 0.2 * L);
+        prop_assume!(rod::geometry::turning_angle(&e, &f) < 2.5);
+        prop_assume!(e.normalize().dot(&reference.0.t) > -0.5 && f.normalize().dot(&reference.1.t) > -0.5);
+        let bend = rod::material_bending::MaterialBending {
+            stiffness: 1e-6,
+            rest_lengths: (la, lb),
+            rest_curvature: nalgebra::Vector2::new(k1, k2),
+            reference,
+        };
+        assert_matches_hyper_dual(bend.eval(&q), gradient_and_hessian(&q, |x| bend.energy_generic(x)));
+        assert_stencil_derivatives(&bend, &q, L);
+        let twist = rod::twist::Twist {
+            stiffness: 1e-6,
+            rest_lengths: (la, lb),
+            rest_twist: 0.3,
+            reference,
+            reference_twist,
+        };
+        assert_matches_hyper_dual(twist.eval(&q), gradient_and_hessian(&q, |x| twist.energy_generic(x)));
+        assert_stencil_derivatives(&twist, &q, L);
+    }
+}
