@@ -34,6 +34,11 @@ impl<const N: usize> Jet<N> {
         j
     }
 
+    /// Hessian entry `(i, j)`.
+    pub fn hessian(&self, i: usize, j: usize) -> f64 {
+        self.h[i][j]
+    }
+
     /// The same function in `M ≥ N` variables: variable `k` of `self` becomes variable
     /// `map[k]` of the result.
     pub fn embed<const M: usize>(&self, map: [usize; N]) -> Jet<M> {
