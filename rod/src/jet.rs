@@ -189,7 +189,7 @@ mod tests {
     #[test]
     fn one_jet_pass_equals_the_hyper_dual_hessian() {
         let q = nalgebra::Vector3::new(0.3, -0.7, 1.1);
-        let (v, g, h) = gradient_and_hessian(&q, |x| f(x));
+        let (v, g, h) = gradient_and_hessian(&q, f);
         let jet = f(&std::array::from_fn(|i| Jet::<3>::var(i, q[i])));
         assert!((jet.v - v).abs() < 1e-14);
         for i in 0..3 {

@@ -100,8 +100,7 @@ pub use dense_newton::{
 pub use error::SolveError;
 pub use lm::{LmBounds, LmError, LmEval, LmOutcome, LmSettings, LmTermination, bounded_lm};
 pub use newton::{
-    Globalization, LinearSolver, NewtonReport, NewtonSettings, NewtonSolver, NewtonTimings,
-    Termination, minimize,
+    LinearSolver, NewtonReport, NewtonSettings, NewtonSolver, NewtonTimings, Termination, minimize,
 };
 pub use pcg::{Pcg, PcgFailure, PcgReport, PcgSettings, Preconditioner};
 pub use roots::{

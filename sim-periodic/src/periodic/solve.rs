@@ -3,7 +3,7 @@
 use super::{ContactPair, PeriodicError, PeriodicTile, YarnModel};
 use crate::coarse::Coarse;
 use nalgebra::Matrix2;
-use solver::{Globalization, NewtonSettings, minimize_constrained};
+use solver::{NewtonSettings, minimize_constrained};
 use yarn_pattern::tile::Tile;
 
 /// Initial DOFs of a tile: zero fluctuation, the tile's twist angles (`*Q`'s `t` column
@@ -43,7 +43,6 @@ impl Default for EquilibriumSettings {
                 gradient_rel_tol: 1e-9,
                 max_iterations: 200,
                 project_spd: false,
-                globalization: Globalization::TrustRegion,
                 ..NewtonSettings::default()
             },
             pair_margin: 1.5,

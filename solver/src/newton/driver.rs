@@ -4,7 +4,7 @@
 use crate::SolveError;
 use crate::assembly::{Assembler, Problem};
 
-use super::{Globalization, NewtonReport, NewtonSettings, NewtonTimings, Termination};
+use super::{NewtonReport, NewtonSettings, NewtonTimings, Termination};
 
 /// What the Newton driver needs from a linear-algebra back end (plain Cholesky on the free DOFs,
 /// or the constrained KKT system).
@@ -98,12 +98,8 @@ struct NewtonRun<'a, P: Problem + ?Sized, S: NewtonSystem> {
     report: NewtonReport,
     /// The first stationarity residual (the scale of the relative tolerance).
     residual0: Option<f64>,
-    /// Shift that worked in the previous iteration; the next escalation starts near it
-    /// ([`Globalization::LineSearch`]), or the trust region's shift for the next iteration
-    /// ([`Globalization::TrustRegion`]).
+    /// Shift that worked in the previous iteration; the next escalation starts near it.
     last_mu: f64,
-    /// The trust region's shift for the next iteration, set with an accepted step.
-    next_mu: Option<f64>,
     /// Termination at the iteration limit.
     limit: Termination,
 }
@@ -127,7 +123,6 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
         report: empty_report(initial_constraint_violation),
         residual0: None,
         last_mu: 0.0,
-        next_mu: None,
         limit: if settings.accept_iteration_limit {
             Termination::IterationLimit
         } else {
@@ -145,15 +140,7 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
         {
             return finish(run.report, stop, String::new());
         }
-        let step = match settings.globalization {
-            Globalization::LineSearch => {
-                run.regularized_step(x, &iterate, residual_pre.is_some())?
-            }
-            Globalization::TrustRegion => {
-                run.trust_region_step(x, &iterate, residual_pre.is_some())?
-            }
-        };
-        match step {
+        match run.regularized_step(x, &iterate, residual_pre.is_some())? {
             Iteration::Step { alpha, mu } => run.take_step(x, alpha, mu),
             Iteration::Stop(termination, detail) => {
                 return finish(run.report, termination, detail);
@@ -305,136 +292,51 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
                 return Ok(Iteration::Stop(Termination::StepTolerance, String::new()));
             }
             match self.step_length(x, iterate)? {
-                Some(alpha) => return Ok(Iteration::Step { alpha, mu }),
+                Some(alpha) => {
+                    let alpha = self.extend_along_negative_curvature(x, iterate, alpha)?;
+                    return Ok(Iteration::Step { alpha, mu });
+                }
                 None => failure = (Termination::LineSearchFailed, String::new()),
             }
         }
         Ok(Iteration::Stop(failure.0, failure.1))
     }
 
-    /// [`Globalization::TrustRegion`]: solves with the carried shift, accepts the step if the
-    /// energy decrease is at least a tenth of the model's, and adapts the shift (module docs
-    /// of [`Globalization`]); checks the residual from the first solve unless
-    /// `residual_checked`.
-    fn trust_region_step(
+    /// Saddle escape: when the full step was accepted but the (unshifted) model curves down
+    /// along it, `ΔxᵀHΔx < 0`, the energy keeps falling beyond it; doubles the step while
+    /// the energy decreases (within the admissible bound, at most 2¹⁰). Without this, a
+    /// shifted step near a saddle moves by about `g/μ` per iteration and the escape takes
+    /// hundreds of iterations.
+    fn extend_along_negative_curvature(
         &mut self,
         x: &[f64],
         iterate: &Iterate,
-        mut residual_checked: bool,
-    ) -> Result<Iteration, SolveError> {
-        let settings = self.settings;
-        let gamma = settings.regularization_growth;
-        let floor = settings.regularization_initial * diagonal_scale(self.asm);
-        let grow = |mu: f64| (mu * gamma).max(floor);
-        let mut mu = self.last_mu;
-        let mut failure = (
-            Termination::FactorizationFailed,
-            String::from("no attempt made"),
-        );
-        for _ in 0..=settings.max_regularization_attempts {
-            let solve_start = std::time::Instant::now();
-            let solved = self.system.solve(self.asm, x, mu, &mut self.dx);
-            self.report.timings.linear_solve += solve_start.elapsed().as_secs_f64();
-            let residual = match solved {
-                Ok(r) => r,
-                Err(SystemFailure::Fatal(msg)) => {
-                    return Ok(Iteration::Stop(
-                        Termination::FactorizationFailed,
-                        format!("{msg} (shift μ = {mu:.3e})"),
-                    ));
-                }
-                Err(SystemFailure::Retry(msg)) => {
-                    failure = (
-                        Termination::FactorizationFailed,
-                        format!("{msg} (shift μ = {mu:.3e})"),
-                    );
-                    mu = grow(mu);
-                    continue;
-                }
-            };
-            if !residual_checked {
-                residual_checked = true;
-                if let Some(stop) = self.check_residual(residual, iterate.feasible) {
-                    return Ok(Iteration::Stop(stop, String::new()));
-                }
-            }
-            if mu == 0.0 && iterate.feasible && inf_norm(&self.dx) <= settings.step_tol {
-                return Ok(Iteration::Stop(Termination::StepTolerance, String::new()));
-            }
-            match self.trust_region_ratio(x, iterate, mu)? {
-                Some((alpha, rho)) => {
-                    // The shift the next iteration starts from.
-                    let next = if alpha < 1.0 {
-                        // Cut short by the admissible bound: the model's step is too long.
-                        grow(mu)
-                    } else if rho > 0.75 {
-                        let smaller = mu / gamma;
-                        if smaller < floor { 0.0 } else { smaller }
-                    } else if rho < 0.25 {
-                        grow(mu)
-                    } else {
-                        mu
-                    };
-                    self.next_mu = Some(next);
-                    return Ok(Iteration::Step { alpha, mu });
-                }
-                None => {
-                    failure = (
-                        Termination::LineSearchFailed,
-                        format!("trust region: shift μ = {mu:.3e} still rejected"),
-                    );
-                    mu = grow(mu);
-                }
-            }
-        }
-        Ok(Iteration::Stop(failure.0, failure.1))
-    }
-
-    /// The admissible step length along `dx` (shift `mu`) and the ratio `ρ` of actual to
-    /// predicted decrease, or `None` if the step is rejected (not a descent direction of a
-    /// convex model, inadmissible, non-finite, or `ρ < 0.1`).
-    fn trust_region_ratio(
-        &mut self,
-        x: &[f64],
-        iterate: &Iterate,
-        mu: f64,
-    ) -> Result<Option<(f64, f64)>, SolveError> {
-        let slope: f64 = self
-            .asm
-            .last_gradient()
-            .iter()
-            .zip(&self.dx)
-            .map(|(g, d)| g * d)
-            .sum();
-        // The model must be convex along Δx (H + μI may be indefinite on the constraints'
-        // null space without the LU noticing).
-        let curvature = quadratic_form(self.asm, &self.dx);
-        if (slope >= 0.0 || curvature <= 0.0) && slope.abs() > iterate.noise {
-            return Ok(None);
+        alpha: f64,
+    ) -> Result<f64, SolveError> {
+        if !self.settings.line_search || alpha < 1.0 || quadratic_form(self.asm, &self.dx) >= 0.0 {
+            return Ok(alpha);
         }
         let alpha_max = self.problem.max_step(x, &self.dx);
-        if alpha_max.is_nan() || alpha_max <= 0.0 {
-            return Ok(None);
+        let energy_at = |run: &mut Self, a: f64| -> Result<f64, SolveError> {
+            for ((t, &xi), &di) in run.x_trial.iter_mut().zip(x).zip(&run.dx) {
+                *t = if di != 0.0 { xi + a * di } else { xi };
+            }
+            run.asm.energy(run.problem, &run.x_trial)
+        };
+        let (mut best, mut best_energy) = (alpha, energy_at(self, alpha)?);
+        for _ in 0..10 {
+            let a = 2.0 * best;
+            if a.partial_cmp(&alpha_max) == Some(std::cmp::Ordering::Greater) || alpha_max.is_nan()
+            {
+                break;
+            }
+            let e = energy_at(self, a)?;
+            if !(e.is_finite() && e < best_energy - iterate.noise) {
+                break;
+            }
+            (best, best_energy) = (a, e);
         }
-        let alpha = alpha_max.min(1.0);
-        let search_start = std::time::Instant::now();
-        for ((t, &xi), &di) in self.x_trial.iter_mut().zip(x).zip(&self.dx) {
-            *t = if di != 0.0 { xi + alpha * di } else { xi };
-        }
-        let trial = self.asm.energy(self.problem, &self.x_trial)?;
-        self.report.timings.line_search += search_start.elapsed().as_secs_f64();
-        if !trial.is_finite() {
-            return Ok(None);
-        }
-        let predicted = -alpha * slope - 0.5 * alpha * alpha * curvature;
-        let actual = iterate.energy - trial;
-        // At rounding level both decreases are noise: accept a step that does not increase
-        // the energy beyond it (the gradient test then decides).
-        if predicted.abs() <= iterate.noise {
-            return Ok((actual >= -iterate.noise).then_some((alpha, 1.0)));
-        }
-        let rho = (actual + iterate.noise) / predicted;
-        Ok((predicted > 0.0 && rho >= 0.1).then_some((alpha, rho)))
+        Ok(best)
     }
 
     /// The step length along `dx`: the full admissible step without a line search, else the
@@ -482,7 +384,7 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
 
     /// Moves `x` by `alpha · dx` and records the step taken with shift `mu`.
     fn take_step(&mut self, x: &mut [f64], alpha: f64, mu: f64) {
-        self.last_mu = self.next_mu.take().unwrap_or(mu);
+        self.last_mu = mu;
         // Entries with a zero step (the Dirichlet DOFs) are left bit-for-bit untouched.
         for (xi, &di) in x.iter_mut().zip(&self.dx) {
             if di != 0.0 {

@@ -34,6 +34,13 @@
 //! 2006, §3.1). Shifting the diagonal is the textbook "Hessian modification" (Nocedal & Wright
 //! Alg. 3.3).
 //!
+//! **Saddle escape.** When the full step is accepted but the unshifted model curves down along
+//! it (`ΔxᵀHΔx < 0`: the iterate is near a saddle of a nonconvex energy, e.g. jammed yarn
+//! contacts with exact Hessians), the step is doubled while the energy keeps decreasing (within
+//! `α_max`, at most 2¹⁰). A shifted step moves only about `g/μ` there, so without this the
+//! escape takes hundreds of iterations. With SPD-projected Hessians `ΔxᵀHΔx ≥ 0` and nothing
+//! changes.
+//!
 //! **Convergence** is declared when the ∞-norm of the gradient on the free DOFs satisfies
 //! `‖g_f‖∞ ≤ max(gradient_abs_tol, gradient_rel_tol · ‖g_f(x₀)‖∞)`, or when an unregularized
 //! Newton step satisfies `‖Δx‖∞ ≤ step_tol`. Everything else (iteration limit, line-search
@@ -78,27 +85,6 @@ pub enum LinearSolver {
     /// Jacobi-preconditioned conjugate gradients ([`crate::pcg`]) to the given relative
     /// residual tolerance and iteration cap. Unconstrained solves only.
     ConjugateGradient(PcgSettings),
-}
-
-/// How a Newton iteration makes sure it makes progress.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Globalization {
-    /// Every iteration first tries the unshifted Newton step and backtracks along it (Armijo);
-    /// the diagonal shift only escalates when the factorization or the line search fails
-    /// (module docs).
-    #[default]
-    LineSearch,
-    /// Levenberg-style trust region on the exact model (Nocedal & Wright 2006, §4.3): the
-    /// shift `μ` is carried between iterations and adapted to the ratio
-    /// `ρ = (E(x) − E(x + Δx)) / (m(0) − m(Δx))` of the actual to the predicted decrease of the
-    /// quadratic model `m` (without the shift): the step is taken if `ρ ≥ 0.1`; `μ` shrinks
-    /// by `γ` if `ρ > 0.75` and grows by `γ` if `ρ < 0.25`, if the step is rejected, or if
-    /// the admissible bound ([`crate::Problem::max_step`]) cut it short. A step along which
-    /// the model is not convex (`ΔxᵀHΔx ≤ 0`, one sparse product) or that is not a descent
-    /// direction is rejected like a bad one. Made for nonconvex problems whose Hessian is
-    /// indefinite over many iterations (jammed yarn contacts), where the line search keeps
-    /// retrying the unshifted step.
-    TrustRegion,
 }
 
 /// Parameters of [`minimize`] and [`crate::minimize_constrained`]. `Default` gives the values
@@ -146,8 +132,6 @@ pub struct NewtonSettings {
     /// When `true`, reaching `max_iterations` without convergence ends the run with `Ok`
     /// and [`Termination::IterationLimit`] instead of an error. Default `false`.
     pub accept_iteration_limit: bool,
-    /// Globalization. Default [`Globalization::LineSearch`].
-    pub globalization: Globalization,
 }
 
 impl Default for NewtonSettings {
@@ -169,7 +153,6 @@ impl Default for NewtonSettings {
             linear_solver: LinearSolver::Cholesky,
             line_search: true,
             accept_iteration_limit: false,
-            globalization: Globalization::LineSearch,
         }
     }
 }
