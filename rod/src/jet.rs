@@ -34,6 +34,11 @@ impl<const N: usize> Jet<N> {
         j
     }
 
+    /// Hessian entry `(i, j)`.
+    pub fn hessian(&self, i: usize, j: usize) -> f64 {
+        self.h[i][j]
+    }
+
     /// The same function in `M ≥ N` variables: variable `k` of `self` becomes variable
     /// `map[k]` of the result.
     pub fn embed<const M: usize>(&self, map: [usize; N]) -> Jet<M> {
@@ -184,7 +189,7 @@ mod tests {
     #[test]
     fn one_jet_pass_equals_the_hyper_dual_hessian() {
         let q = nalgebra::Vector3::new(0.3, -0.7, 1.1);
-        let (v, g, h) = gradient_and_hessian(&q, |x| f(x));
+        let (v, g, h) = gradient_and_hessian(&q, f);
         let jet = f(&std::array::from_fn(|i| Jet::<3>::var(i, q[i])));
         assert!((jet.v - v).abs() < 1e-14);
         for i in 0..3 {

@@ -25,6 +25,7 @@
 pub mod bending;
 pub mod contact;
 pub mod fd;
+pub(crate) mod frame_jets;
 pub mod geometry;
 pub mod hyperdual;
 pub mod jet;

@@ -15,20 +15,21 @@
 //!
 //! Derivatives: the gradient and Hessian of that function are exact (to round-off), computed
 //! in one pass of second-order jets ([`crate::jet`]) structured by dependence: each transported
-//! material frame is a `Jet<4>` in its edge and twist angle, the curvature binormal a `Jet<6>`
-//! in the two edges, and only the final dot products run in the 8 reduced variables
-//! `(e, f, θᵉ, θᶠ)`, mapped to the 11 DOFs by `e = x₁ − x₀`, `f = x₂ − x₁`
-//! ([`pull_back`]). The same energy written over any [`Real`] ([`MaterialBending::energy_generic`])
+//! material frame is a closed-form `Jet<4>` in its edge and twist angle
+//! ([`crate::frame_jets`]), the curvature binormal a `Jet<6>` in the two edges, and only the
+//! final dot products run in the 8 reduced variables `(e, f, θᵉ, θᶠ)`, mapped to the 11 DOFs
+//! by `e = x₁ − x₀`, `f = x₂ − x₁`. The same energy written over any [`Real`] ([`MaterialBending::energy_generic`])
 //! gives the hyper-dual reference the jets are tested against.
 //! Why not DER's closed-form Hessian (Bergou 2010, Jawed et al.)? It drops the second variation
 //! of the transported reference frame, so it is a symmetric approximation, not the Hessian of
 //! any function: our finite-difference check rejects it by 4–20 % on random configurations.
 
+use crate::frame_jets::{edge_jet, edges, embed3, material_frame_jets, pull_back};
 use crate::geometry::Frame;
 use crate::hyperdual::{Real, Vec3};
 use crate::jet::Jet;
 use crate::{Evaluation, Stencil};
-use nalgebra::{SMatrix, SVector, Vector2};
+use nalgebra::{SVector, Vector2};
 
 /// Seed 002 Eq. 6 bending with rest curvature; see the module doc.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -107,11 +108,7 @@ impl MaterialBending {
     fn energy_jet(&self, q: &SVector<f64, 11>) -> Jet<8> {
         let (e, f) = edges(q);
         let frame = |edge: &nalgebra::Vector3<f64>, reference: &Frame, theta: f64, map| {
-            let (_, m1, m2) = transported_material_frame(
-                &edge_jet::<4>(edge, [0, 1, 2]),
-                reference,
-                Jet::var(3, theta),
-            );
+            let (m1, m2) = material_frame_jets(edge, reference, theta);
             (embed3(&m1, map), embed3(&m2, map))
         };
         let (m1e, m2e) = frame(&e, &self.reference.0, q[9], [0, 1, 2, 6]);
@@ -134,62 +131,5 @@ impl Stencil<11> for MaterialBending {
 
     fn eval(&self, q: &SVector<f64, 11>) -> Evaluation<11> {
         pull_back(&self.energy_jet(q))
-    }
-}
-
-/// The two edges `e = x₁ − x₀`, `f = x₂ − x₁` of an 11-DOF stencil `(x₀, x₁, x₂, θᵉ, θᶠ)`.
-pub(crate) fn edges(q: &SVector<f64, 11>) -> (nalgebra::Vector3<f64>, nalgebra::Vector3<f64>) {
-    let x = |k: usize| nalgebra::Vector3::new(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
-    (x(1) - x(0), x(2) - x(1))
-}
-
-/// An edge vector as jet variables `vars`.
-pub(crate) fn edge_jet<const N: usize>(
-    e: &nalgebra::Vector3<f64>,
-    vars: [usize; 3],
-) -> Vec3<Jet<N>> {
-    Vec3(std::array::from_fn(|i| Jet::var(vars[i], e[i])))
-}
-
-/// Embeds each component of a vector of jets (see [`Jet::embed`]).
-pub(crate) fn embed3<const N: usize, const M: usize>(
-    v: &Vec3<Jet<N>>,
-    map: [usize; N],
-) -> Vec3<Jet<M>> {
-    Vec3(std::array::from_fn(|i| v.0[i].embed(map)))
-}
-
-/// Energy, gradient and Hessian in the 11 DOFs `(x₀, x₁, x₂, θᵉ, θᶠ)` from a jet in the
-/// reduced variables `z = (e, f, θᵉ, θᶠ)`, `e = x₁ − x₀`, `f = x₂ − x₁`: `∇_q = Aᵀ∇_z`,
-/// `∇²_q = Aᵀ ∇²_z A` with the constant, sparse `A = ∂z/∂q`.
-pub(crate) fn pull_back(w: &Jet<8>) -> Evaluation<11> {
-    // Column k of A as (z index, coefficient) pairs: q index → the z entries it moves.
-    let column = |k: usize| -> [(usize, f64); 2] {
-        match k {
-            0..=2 => [(k, -1.0), (k, 0.0)],
-            3..=5 => [(k - 3, 1.0), (k, -1.0)],
-            6..=8 => [(k - 3, 1.0), (k - 3, 0.0)],
-            _ => [(k - 3, 1.0), (k - 3, 0.0)],
-        }
-    };
-    let mut gradient = SVector::<f64, 11>::zeros();
-    let mut hessian = SMatrix::<f64, 11, 11>::zeros();
-    for k in 0..11 {
-        gradient[k] = column(k).iter().map(|&(a, c)| c * w.g[a]).sum();
-        for l in k..11 {
-            let mut s = 0.0;
-            for &(a, ca) in &column(k) {
-                for &(b, cb) in &column(l) {
-                    s += ca * cb * w.h[a][b];
-                }
-            }
-            hessian[(k, l)] = s;
-            hessian[(l, k)] = s;
-        }
-    }
-    Evaluation {
-        energy: w.v,
-        gradient,
-        hessian,
     }
 }

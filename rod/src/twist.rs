@@ -16,12 +16,11 @@
 //! `Jet<8>` in `(e, f, θᵉ, θᶠ)` (see [`crate::material_bending`]); the same energy over any
 //! [`Real`] ([`Twist::energy_generic`]) is the hyper-dual reference of the tests.
 
+use crate::frame_jets::{edges, embed3, pull_back, transported_frame_jets};
 use crate::geometry::Frame;
 use crate::hyperdual::{Real, Vec3};
 use crate::jet::Jet;
-use crate::material_bending::{
-    edge_jet, edges, embed3, pull_back, transport, transported_material_frame,
-};
+use crate::material_bending::{transport, transported_material_frame};
 use crate::{Evaluation, Stencil};
 use nalgebra::SVector;
 use std::f64::consts::TAU;
@@ -91,11 +90,7 @@ impl Twist {
     fn energy_jet(&self, q: &SVector<f64, 11>) -> Jet<8> {
         let (e, f) = edges(q);
         let frame = |edge: &nalgebra::Vector3<f64>, reference: &Frame, map| {
-            let (t, d1, _) = transported_material_frame(
-                &edge_jet::<3>(edge, [0, 1, 2]),
-                reference,
-                Jet::cst(0.0),
-            );
+            let [t, d1, _] = transported_frame_jets(edge, reference);
             (embed3(&t, map), embed3(&d1, map))
         };
         let (te, d1e) = frame(&e, &self.reference.0, [0, 1, 2]);

@@ -18,7 +18,11 @@
 //! `C` is expensive to build and destroys sparsity.
 //!
 //! **Convergence** uses the Lagrangian gradient `‖g + Cᵀλ‖∞ = ‖g + Ĉᵀλ̂‖∞` (zero exactly at a
-//! KKT point) in place of `‖g_f‖∞`, plus feasibility `‖Cx − d‖∞ ≤ constraint_tol · (‖C‖∞ ‖x‖∞ +
+//! KKT point) in place of `‖g_f‖∞`, with the least-squares multipliers `λ̂ = −(ĈĈᵀ)⁻¹Ĉg` (the
+//! gradient projected onto the null space of `C`; `ĈĈᵀ` is factorized once, for up to 1024
+//! constraints, else the KKT solve's multipliers are used). The KKT solve's own multipliers
+//! depend on `H`: near a singular or indefinite `H` they can be inaccurate enough to keep the
+//! test from passing at a stationary point, plus feasibility `‖Cx − d‖∞ ≤ constraint_tol · (‖C‖∞ ‖x‖∞ +
 //! ‖d‖∞)`; the line search, regularization and error handling are those of
 //! [`crate::newton`].
 //!
@@ -173,7 +177,14 @@ struct KktSystem {
     rhs: Vec<f64>,
     sol: Vec<f64>,
     work: Vec<f64>,
+    /// Cholesky factor of `ĈĈᵀ` (dense, `m ≤ MAX_DENSE_MULTIPLIERS`) for the least-squares
+    /// multipliers of the stationarity test.
+    normal: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
 }
+
+/// Largest constraint count for which the stationarity test fits its own multipliers (a dense
+/// `m × m` factorization once per solver); above it, the KKT solve's multipliers are used.
+const MAX_DENSE_MULTIPLIERS: usize = 1024;
 
 impl KktSystem {
     fn new(asm: &Assembler, constraints: &LinearConstraints) -> Result<Self, SolveError> {
@@ -240,9 +251,54 @@ impl KktSystem {
             rhs: vec![0.0; n + m],
             sol: vec![0.0; n + m],
             work: vec![0.0; n + m],
+            normal: None,
         };
         system.check_rank()?;
+        if m <= MAX_DENSE_MULTIPLIERS {
+            system.normal = nalgebra::Cholesky::new(system.scaled_gram());
+        }
         Ok(system)
+    }
+
+    /// `ĈĈᵀ` (dense).
+    fn scaled_gram(&self) -> nalgebra::DMatrix<f64> {
+        let m = self.constraints.n_constraints();
+        let mut gram = nalgebra::DMatrix::zeros(m, m);
+        let c = &self.constraints;
+        for r in 0..m {
+            for s in r..m {
+                let row = |k: usize| &c.triplets[c.row_ptr[k]..c.row_ptr[k + 1]];
+                let mut dot = 0.0;
+                for &(_, cr, vr) in row(r) {
+                    for &(_, cs, vs) in row(s) {
+                        if cr == cs {
+                            dot += vr * vs;
+                        }
+                    }
+                }
+                let v = dot * self.row_scale[r] * self.row_scale[s];
+                gram[(r, s)] = v;
+                gram[(s, r)] = v;
+            }
+        }
+        gram
+    }
+
+    /// `‖g + Ĉᵀλ‖∞` with the least-squares multipliers `λ = −(ĈĈᵀ)⁻¹Ĉg`: the norm of the
+    /// gradient projected onto the constraints' null space, independent of `H`.
+    fn projected_gradient_norm(&self, gradient: &[f64]) -> Option<f64> {
+        let normal = self.normal.as_ref()?;
+        let c = &self.constraints;
+        let mut y = nalgebra::DVector::zeros(c.n_constraints());
+        for &(r, col, v) in &c.triplets {
+            y[r] += self.row_scale[r] * v * gradient[col];
+        }
+        let lambda = -normal.solve(&y);
+        let mut r = gradient.to_vec();
+        for &(row, col, v) in &c.triplets {
+            r[col] += self.row_scale[row] * v * lambda[row];
+        }
+        Some(inf_norm(&r))
     }
 
     /// Writes `[H + μI, Ĉᵀ; Ĉ, 0]` into the KKT values; `h = None` means `H = I`.
@@ -356,8 +412,8 @@ impl KktSystem {
 }
 
 impl NewtonSystem for KktSystem {
-    fn residual_before_solve(&self, _gradient: &[f64]) -> Option<f64> {
-        None
+    fn residual_before_solve(&self, gradient: &[f64]) -> Option<f64> {
+        self.projected_gradient_norm(gradient)
     }
 
     fn solve(

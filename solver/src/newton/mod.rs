@@ -34,6 +34,13 @@
 //! 2006, §3.1). Shifting the diagonal is the textbook "Hessian modification" (Nocedal & Wright
 //! Alg. 3.3).
 //!
+//! **Saddle escape.** When the full step is accepted but the unshifted model curves down along
+//! it (`ΔxᵀHΔx < 0`: the iterate is near a saddle of a nonconvex energy, e.g. jammed yarn
+//! contacts with exact Hessians), the step is doubled while the energy keeps decreasing (within
+//! `α_max`, at most 2¹⁰). A shifted step moves only about `g/μ` there, so without this the
+//! escape takes hundreds of iterations. With SPD-projected Hessians `ΔxᵀHΔx ≥ 0` and nothing
+//! changes.
+//!
 //! **Convergence** is declared when the ∞-norm of the gradient on the free DOFs satisfies
 //! `‖g_f‖∞ ≤ max(gradient_abs_tol, gradient_rel_tol · ‖g_f(x₀)‖∞)`, or when an unregularized
 //! Newton step satisfies `‖Δx‖∞ ≤ step_tol`. Everything else (iteration limit, line-search
