@@ -197,15 +197,52 @@ pub(crate) fn material_frame_jets(
     (m1, m2)
 }
 
+/// The curvature binormal `(κb) = 2 e × f / (|e||f| + e·f)` as jets in `(e, f)` (variables
+/// 0–2 and 3–5), in closed form: `N = e × f` is bilinear (`∂²Nₖ/∂eᵢ∂fⱼ = εₖᵢⱼ`), and
+/// `D = |e||f| + e·f` has `∇ₑD = |f| tₑ + f`, `∇²ₑₑD = |f| Pₑ/|e|`, `∇²ₑ_fD = tₑt_fᵀ + I`.
+pub(crate) fn curvature_binormal_jets(e: &V3, f: &V3) -> Vec3<Jet<6>> {
+    let (le, lf) = (e.norm(), f.norm());
+    let (te, tf) = (e / le, f / lf);
+    let mut d = Jet::<6>::var(0, le * lf + e.dot(f));
+    let (ge, gf) = (te * lf + f, tf * le + e);
+    let (pe, pf) = (
+        (M3::identity() - te * te.transpose()) * (lf / le),
+        (M3::identity() - tf * tf.transpose()) * (le / lf),
+    );
+    let cross = te * tf.transpose() + M3::identity();
+    for i in 0..3 {
+        d.g[i] = ge[i];
+        d.g[3 + i] = gf[i];
+        for j in 0..3 {
+            d.h[i][j] = pe[(i, j)];
+            d.h[3 + i][3 + j] = pf[(i, j)];
+            d.h[i][3 + j] = cross[(i, j)];
+            d.h[3 + j][i] = cross[(i, j)];
+        }
+    }
+    let scale = <Jet<6> as crate::hyperdual::Real>::cst(2.0) / d;
+    let n = e.cross(f);
+    Vec3(std::array::from_fn(|k| {
+        // Nₖ = eᵢfⱼ − eⱼfᵢ with (k, i, j) cyclic.
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let mut nk = Jet::<6>::var(0, n[k]);
+        nk.g = [0.0; 6];
+        nk.g[i] = f[j];
+        nk.g[j] = -f[i];
+        nk.g[3 + j] = e[i];
+        nk.g[3 + i] = -e[j];
+        nk.h[i][3 + j] = 1.0;
+        nk.h[3 + j][i] = 1.0;
+        nk.h[j][3 + i] = -1.0;
+        nk.h[3 + i][j] = -1.0;
+        nk * scale
+    }))
+}
+
 /// The two edges `e = x₁ − x₀`, `f = x₂ − x₁` of an 11-DOF stencil `(x₀, x₁, x₂, θᵉ, θᶠ)`.
 pub(crate) fn edges(q: &SVector<f64, 11>) -> (V3, V3) {
     let x = |k: usize| V3::new(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
     (x(1) - x(0), x(2) - x(1))
-}
-
-/// An edge vector as jet variables `vars`.
-pub(crate) fn edge_jet<const N: usize>(e: &V3, vars: [usize; 3]) -> Vec3<Jet<N>> {
-    Vec3(std::array::from_fn(|i| Jet::var(vars[i], e[i])))
 }
 
 /// Embeds each component of a vector of jets (see [`Jet::embed`]).

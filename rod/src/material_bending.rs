@@ -15,8 +15,8 @@
 //!
 //! Derivatives: the gradient and Hessian of that function are exact (to round-off), computed
 //! in one pass of second-order jets ([`crate::jet`]) structured by dependence: each transported
-//! material frame is a closed-form `Jet<4>` in its edge and twist angle
-//! ([`crate::frame_jets`]), the curvature binormal a `Jet<6>` in the two edges, and only the
+//! material frame is a closed-form `Jet<4>` in its edge and twist angle, the curvature
+//! binormal a closed-form `Jet<6>` in the two edges ([`crate::frame_jets`]), and only the
 //! final dot products run in the 8 reduced variables `(e, f, θᵉ, θᶠ)`, mapped to the 11 DOFs
 //! by `e = x₁ − x₀`, `f = x₂ − x₁`. The same energy written over any [`Real`] ([`MaterialBending::energy_generic`])
 //! gives the hyper-dual reference the jets are tested against.
@@ -24,7 +24,7 @@
 //! of the transported reference frame, so it is a symmetric approximation, not the Hessian of
 //! any function: our finite-difference check rejects it by 4–20 % on random configurations.
 
-use crate::frame_jets::{edge_jet, edges, embed3, material_frame_jets, pull_back};
+use crate::frame_jets::{curvature_binormal_jets, edges, material_frame_jets, pull_back};
 use crate::geometry::Frame;
 use crate::hyperdual::{Real, Vec3};
 use crate::jet::Jet;
@@ -106,21 +106,54 @@ impl MaterialBending {
 
     /// The energy as a jet in the reduced variables `(e, f, θᵉ, θᶠ)` (module docs).
     fn energy_jet(&self, q: &SVector<f64, 11>) -> Jet<8> {
+        // W = w (r₁² + r₂²), rᵢ = κᵢ − κ̄ᵢ, so ∇²W = 2w (∇κ₁∇κ₁ᵀ + ∇κ₂∇κ₂ᵀ + ∇²s) with
+        // s = r₁κ₁ + r₂κ₂ at fixed rᵢ: one jet product per component for the curvature terms,
+        // first derivatives only for the Gauss–Newton terms.
+        const E_VARS: [usize; 4] = [0, 1, 2, 6];
+        const F_VARS: [usize; 4] = [3, 4, 5, 7];
         let (e, f) = edges(q);
-        let frame = |edge: &nalgebra::Vector3<f64>, reference: &Frame, theta: f64, map| {
-            let (m1, m2) = material_frame_jets(edge, reference, theta);
-            (embed3(&m1, map), embed3(&m2, map))
+        let (m1e, m2e) = material_frame_jets(&e, &self.reference.0, q[9]);
+        let (m1f, m2f) = material_frame_jets(&f, &self.reference.1, q[10]);
+        let kb = curvature_binormal_jets(&e, &f);
+        let dot = |a: &Vec3<Jet<4>>, b: &Vec3<Jet<4>>| -> f64 {
+            (0..3).map(|k| (a.0[k].v + b.0[k].v) * kb.0[k].v).sum()
         };
-        let (m1e, m2e) = frame(&e, &self.reference.0, q[9], [0, 1, 2, 6]);
-        let (m1f, m2f) = frame(&f, &self.reference.1, q[10], [3, 4, 5, 7]);
-        let (ej, fj) = (edge_jet::<6>(&e, [0, 1, 2]), edge_jet::<6>(&f, [3, 4, 5]));
-        let kb = ej
-            .cross(&fj)
-            .scale(Jet::cst(2.0) / (ej.norm() * fj.norm() + ej.dot(&fj)));
-        let kb = embed3(&kb, [0, 1, 2, 3, 4, 5]);
-        let d1 = (m2e + m2f).dot(&kb).scale(0.5) - Jet::cst(self.rest_curvature.x);
-        let d2 = -(m1e + m1f).dot(&kb).scale(0.5) - Jet::cst(self.rest_curvature.y);
-        (d1 * d1 + d2 * d2).scale(self.weight())
+        let k1 = 0.5 * dot(&m2e, &m2f);
+        let k2 = -0.5 * dot(&m1e, &m1f);
+        let (r1, r2) = (k1 - self.rest_curvature.x, k2 - self.rest_curvature.y);
+        // ∇κ in the 8 reduced variables, from first derivatives only.
+        let gradient = |me: &Vec3<Jet<4>>, mf: &Vec3<Jet<4>>, sign: f64| -> [f64; 8] {
+            let mut g = [0.0; 8];
+            for k in 0..3 {
+                let (b, a) = (kb.0[k], me.0[k].v + mf.0[k].v);
+                for v in 0..4 {
+                    g[E_VARS[v]] += 0.5 * sign * b.v * me.0[k].g[v];
+                    g[F_VARS[v]] += 0.5 * sign * b.v * mf.0[k].g[v];
+                }
+                for v in 0..6 {
+                    g[v] += 0.5 * sign * a * b.g[v];
+                }
+            }
+            g
+        };
+        let (g1, g2) = (gradient(&m2e, &m2f, 1.0), gradient(&m1e, &m1f, -1.0));
+        // s = Σₖ cₖ (κb)ₖ with cₖ = ½ (r₁ m₂ₖ − r₂ m₁ₖ), both edges.
+        let mut s = Jet::<8>::cst(0.0);
+        for k in 0..3 {
+            let half = |m2: &Jet<4>, m1: &Jet<4>| m2.scale(0.5 * r1) - m1.scale(0.5 * r2);
+            let c = half(&m2e.0[k], &m1e.0[k]).embed::<8>(E_VARS)
+                + half(&m2f.0[k], &m1f.0[k]).embed::<8>(F_VARS);
+            s = s + c * kb.0[k].embed::<8>([0, 1, 2, 3, 4, 5]);
+        }
+        let w = self.weight();
+        let mut out = Jet::<8>::cst(w * (r1 * r1 + r2 * r2));
+        for i in 0..8 {
+            out.g[i] = 2.0 * w * s.g[i];
+            for j in 0..8 {
+                out.h[i][j] = 2.0 * w * (g1[i] * g1[j] + g2[i] * g2[j] + s.h[i][j]);
+            }
+        }
+        out
     }
 }
 
