@@ -2,9 +2,9 @@
 //!
 //! A hyper-dual number `v + a ε₁ + b ε₂ + ab ε₁ε₂` with `ε₁² = ε₂² = 0` carries, for a
 //! function evaluated at `q + ε₁ eᵢ + ε₂ eⱼ`, the value, `∂/∂qᵢ`, `∂/∂qⱼ` and `∂²/∂qᵢ∂qⱼ`
-//! exactly (no truncation error; Fike & Alonso 2011). Used where a closed-form Hessian would
-//! be long and error-prone — the material-frame bending of [`crate::material_bending`],
-//! whose reference frames move by parallel transport. Closed forms remain the rule elsewhere.
+//! exactly (no truncation error; Fike & Alonso 2011). The material-frame terms write their
+//! energy once over [`Real`]; hyper-dual passes of that generic energy are the independent
+//! reference their closed-form jets ([`crate::jet`]) are tested and benchmarked against.
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

@@ -14,7 +14,7 @@
 //! | [`twist`] | twist with reference twist of transported frames | Bergou 2008/2010 |
 //! | [`contact`] | segment closest points; two-phase barrier contact with Simpson quadrature | seed 002 Eq. 7 |
 //! | [`hyperdual`] | exact second derivatives by forward differentiation (the reference the jets are checked against) | Fike & Alonso 2011 |
-//! | [`jet`] | value, gradient and Hessian in one pass (second-order forward mode), for the material-frame terms | — |
+//! | [`jet`] | value, gradient and Hessian in one pass (second-order forward mode); with closed-form pieces (`frame_jets`) for the material-frame terms | — |
 //! | [`spd`] | projection of small symmetric Hessians onto the PSD cone | — |
 //! | [`validation`] | circle and helix references with closed-form bending energy | — |
 //! | [`fd`] | the finite-difference derivative-check harness used by every crate | — |
