@@ -16,7 +16,7 @@
 //! Derivatives: the gradient and Hessian of that function are exact (to round-off), computed
 //! in one pass of second-order jets ([`crate::jet`]) structured by dependence: each transported
 //! material frame is a closed-form `Jet<4>` in its edge and twist angle, the curvature
-//! binormal a closed-form `Jet<6>` in the two edges ([`crate::frame_jets`]), and only the
+//! binormal a closed-form `Jet<6>` in the two edges (the crate-private `frame_jets` module), and only the
 //! final dot products run in the 8 reduced variables `(e, f, θᵉ, θᶠ)`, mapped to the 11 DOFs
 //! by `e = x₁ − x₀`, `f = x₂ − x₁`. The same energy written over any [`Real`] ([`MaterialBending::energy_generic`])
 //! gives the hyper-dual reference the jets are tested against.
