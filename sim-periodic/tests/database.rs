@@ -197,3 +197,28 @@ fn uniaxial_curve_has_zero_orthogonal_stress_and_stress_is_dpsi_ds() {
     let (ss, _) = directional_stress(&eq, 0.0);
     assert!((ss - curve[3].sigma_s).abs() < 1e-6 * ss.abs());
 }
+
+/// The continuation tree fixes each sample's warm start (its neighbour towards the root), and
+/// every solve is deterministic, so the database does not depend on the number of threads.
+#[test]
+fn database_does_not_depend_on_the_thread_count() {
+    let (tile, model) = relaxed();
+    let settings = DatabaseSettings::default();
+    let axes = [vec![0.0, 0.15], vec![-0.2, 0.0, 0.2], vec![0.0, 0.1]];
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| generate(&tile, &model, axes.clone(), &settings, None, &|_| {}).unwrap())
+    };
+    let (one, two) = (run(1), run(2));
+    assert_eq!(one.database, two.database);
+    let rows = |r: &sim_periodic::database::Generated| -> Vec<(u64, usize)> {
+        r.samples
+            .iter()
+            .map(|s| (s.density.to_bits(), s.iterations))
+            .collect()
+    };
+    assert_eq!(rows(&one), rows(&two));
+}
