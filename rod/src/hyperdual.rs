@@ -147,19 +147,9 @@ impl Real for HyperDual {
         (self.chain(s, c, -s), self.chain(c, -s, -c))
     }
     fn atan2(self, x: Self) -> Self {
-        // f(y, x) = atan2(y, x): f_y = x/r², f_x = −y/r², f_yy = −2xy/r⁴, f_xx = 2xy/r⁴,
-        // f_xy = (y² − x²)/r⁴.
-        let (y, xv) = (self.v, x.v);
-        let r2 = y * y + xv * xv;
-        let (fy, fx) = (xv / r2, -y / r2);
-        let r4 = r2 * r2;
-        let (fyy, fxx, fxy) = (
-            -2.0 * xv * y / r4,
-            2.0 * xv * y / r4,
-            (y * y - xv * xv) / r4,
-        );
+        let [fy, fx, fyy, fxx, fxy] = atan2_partials(self.v, x.v);
         Self {
-            v: y.atan2(xv),
+            v: self.v.atan2(x.v),
             a: fy * self.a + fx * x.a,
             b: fy * self.b + fx * x.b,
             ab: fy * self.ab
@@ -172,6 +162,20 @@ impl Real for HyperDual {
     fn value(self) -> f64 {
         self.v
     }
+}
+
+/// First and second partial derivatives of `f(y, x) = atan2(y, x)`:
+/// `[f_y, f_x, f_yy, f_xx, f_xy] = [x/r², −y/r², −2xy/r⁴, 2xy/r⁴, (y² − x²)/r⁴]`, `r² = x² + y²`.
+pub(crate) fn atan2_partials(y: f64, x: f64) -> [f64; 5] {
+    let r2 = y * y + x * x;
+    let r4 = r2 * r2;
+    [
+        x / r2,
+        -y / r2,
+        -2.0 * x * y / r4,
+        2.0 * x * y / r4,
+        (y * y - x * x) / r4,
+    ]
 }
 
 /// A 3-vector over a [`Real`] scalar (just what generic stencils need).

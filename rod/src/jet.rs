@@ -12,7 +12,7 @@
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-use crate::hyperdual::Real;
+use crate::hyperdual::{Real, atan2_partials};
 
 /// `f(x₀ + δ) ≈ v + g·δ + ½ δᵀ h δ` in `N` variables; `h` is stored in full and kept
 /// symmetric.
@@ -145,17 +145,8 @@ impl<const N: usize> Real for Jet<N> {
         (self.chain(s, c, -s), self.chain(c, -s, -c))
     }
     fn atan2(self, x: Self) -> Self {
-        // f(y, x) = atan2(y, x): f_y = x/r², f_x = −y/r², f_yy = −2xy/r⁴, f_xx = 2xy/r⁴,
-        // f_xy = (y² − x²)/r⁴.
         let (y, xv) = (self.v, x.v);
-        let r2 = y * y + xv * xv;
-        let (fy, fx) = (xv / r2, -y / r2);
-        let r4 = r2 * r2;
-        let (fyy, fxx, fxy) = (
-            -2.0 * xv * y / r4,
-            2.0 * xv * y / r4,
-            (y * y - xv * xv) / r4,
-        );
+        let [fy, fx, fyy, fxx, fxy] = atan2_partials(y, xv);
         let mut out = Self::cst(y.atan2(xv));
         for i in 0..N {
             out.g[i] = fy * self.g[i] + fx * x.g[i];

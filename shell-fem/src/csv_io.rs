@@ -62,16 +62,6 @@ pub fn records(text: &str, file: &str) -> Result<Vec<Record>, ShellError> {
     Ok(out)
 }
 
-/// Comment lines (`#` …, without the `#`) before the first record, for metadata such as a
-/// specimen width.
-pub fn leading_comments(text: &str) -> impl Iterator<Item = &str> {
-    text.lines()
-        .map(str::trim)
-        .filter(|l| !l.is_empty())
-        .take_while(|l| l.starts_with('#'))
-        .map(|l| l[1..].trim())
-}
-
 /// Builds a CSV table in memory: a header, then rows of the same length.
 pub struct CsvTable {
     writer: csv::Writer<Vec<u8>>,
@@ -143,11 +133,5 @@ mod tests {
         let r = records(&text, "t").unwrap();
         assert_eq!(r[1].fields, ["a,b", "0.1"]);
         assert_eq!(r[2].fields, ["c", ""]);
-    }
-
-    #[test]
-    fn leading_comments_stop_at_the_first_record() {
-        let c: Vec<&str> = leading_comments("# one\n#two\nh\n# late\n").collect();
-        assert_eq!(c, ["one", "two"]);
     }
 }

@@ -2,8 +2,8 @@
 //!
 //! Two schemas:
 //!
-//! 1. **Stitch-by-stitch CSV** (real data): optional `#` comment lines (a comment containing
-//!    `width at clamp <w> mm` gives the specimen width), a header naming at least
+//! 1. **Stitch-by-stitch CSV** (real data): optional `#` comment lines (the shared files note
+//!    the specimen width at the clamp there; it is not read), a header naming at least
 //!    `axial_strain`, `transverse_strain` and `stress_n_per_mm` (force per unit clamp width),
 //!    optionally `video,frame,force_n`. Several repeated loading runs (`video`) are merged: from
 //!    each run only the **loading branch** is kept (rows up to the run's largest axial strain),

@@ -133,6 +133,45 @@ impl LinearConstraints {
         Ok(self.violation_unchecked(x))
     }
 
+    /// `ĈĈᵀ = S C Cᵀ S` (dense) for the row scales `S = diag(row_scale)`; each entry merges the two rows' column-sorted triplets (linear in the
+    /// row lengths, so the dense zero-mean rows of a large problem stay cheap).
+    fn scaled_gram(&self, row_scale: &[f64]) -> nalgebra::DMatrix<f64> {
+        let c = self;
+        let m = c.n_constraints();
+        let row = |k: usize| &c.triplets[c.row_ptr[k]..c.row_ptr[k + 1]];
+        let mut gram = nalgebra::DMatrix::zeros(m, m);
+        for r in 0..m {
+            for s in r..m {
+                let (a, b) = (row(r), row(s));
+                let (mut i, mut j, mut dot) = (0, 0, 0.0);
+                while i < a.len() && j < b.len() {
+                    match a[i].1.cmp(&b[j].1) {
+                        std::cmp::Ordering::Less => i += 1,
+                        std::cmp::Ordering::Greater => j += 1,
+                        std::cmp::Ordering::Equal => {
+                            // Duplicate triplets of one column are summed.
+                            let col = a[i].1;
+                            let (mut sa, mut sb) = (0.0, 0.0);
+                            while i < a.len() && a[i].1 == col {
+                                sa += a[i].2;
+                                i += 1;
+                            }
+                            while j < b.len() && b[j].1 == col {
+                                sb += b[j].2;
+                                j += 1;
+                            }
+                            dot += sa * sb;
+                        }
+                    }
+                }
+                let v = dot * row_scale[r] * row_scale[s];
+                gram[(r, s)] = v;
+                gram[(s, r)] = v;
+            }
+        }
+        gram
+    }
+
     /// `(C x)_r − d_r` (no length check).
     fn row_residual(&self, r: usize, x: &[f64]) -> f64 {
         let row = &self.triplets[self.row_ptr[r]..self.row_ptr[r + 1]];
@@ -255,33 +294,9 @@ impl KktSystem {
         };
         system.check_rank()?;
         if m <= MAX_DENSE_MULTIPLIERS {
-            system.normal = nalgebra::Cholesky::new(system.scaled_gram());
+            system.normal = nalgebra::Cholesky::new(constraints.scaled_gram(&system.row_scale));
         }
         Ok(system)
-    }
-
-    /// `ĈĈᵀ` (dense).
-    fn scaled_gram(&self) -> nalgebra::DMatrix<f64> {
-        let m = self.constraints.n_constraints();
-        let mut gram = nalgebra::DMatrix::zeros(m, m);
-        let c = &self.constraints;
-        for r in 0..m {
-            for s in r..m {
-                let row = |k: usize| &c.triplets[c.row_ptr[k]..c.row_ptr[k + 1]];
-                let mut dot = 0.0;
-                for &(_, cr, vr) in row(r) {
-                    for &(_, cs, vs) in row(s) {
-                        if cr == cs {
-                            dot += vr * vs;
-                        }
-                    }
-                }
-                let v = dot * self.row_scale[r] * self.row_scale[s];
-                gram[(r, s)] = v;
-                gram[(s, r)] = v;
-            }
-        }
-        gram
     }
 
     /// `‖g + Ĉᵀλ‖∞` with the least-squares multipliers `λ = −(ĈĈᵀ)⁻¹Ĉg`: the norm of the
@@ -517,4 +532,32 @@ pub fn minimize_constrained<P: Problem + ?Sized>(
     settings: &NewtonSettings,
 ) -> Result<NewtonReport, SolveError> {
     ConstrainedNewtonSolver::new(problem, constraints)?.minimize(problem, x, settings)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scaled_gram_matches_the_dense_product_with_duplicate_triplets() {
+        // Row 0 has column 1 twice (summed), rows share columns 1 and 3 only.
+        let triplets = [
+            (0, 1, 2.0),
+            (0, 3, -1.0),
+            (0, 1, 0.5),
+            (1, 0, 4.0),
+            (1, 1, 1.0),
+            (1, 3, 3.0),
+            (2, 2, 1.0),
+        ];
+        let c = LinearConstraints::new(4, &triplets, &[0.0; 3]).unwrap();
+        let scale = [0.5, 2.0, 1.0];
+        let mut dense = nalgebra::DMatrix::<f64>::zeros(3, 4);
+        for &(r, col, v) in &triplets {
+            dense[(r, col)] += scale[r] * v;
+        }
+        let want = &dense * dense.transpose();
+        let got = c.scaled_gram(&scale);
+        assert!((got - want).amax() < 1e-14);
+    }
 }

@@ -313,7 +313,12 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
         iterate: &Iterate,
         alpha: f64,
     ) -> Result<f64, SolveError> {
-        if !self.settings.line_search || alpha < 1.0 || quadratic_form(self.asm, &self.dx) >= 0.0 {
+        // SPD-projected Hessians have ΔxᵀHΔx ≥ 0: skip the product.
+        if !self.settings.line_search
+            || self.settings.project_spd
+            || alpha < 1.0
+            || quadratic_form(self.asm, &self.dx) >= 0.0
+        {
             return Ok(alpha);
         }
         let alpha_max = self.problem.max_step(x, &self.dx);
