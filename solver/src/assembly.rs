@@ -323,11 +323,6 @@ impl Assembler {
         (self.hessian.val_mut(), &self.diag_slots)
     }
 
-    /// Value index of every free DOF's diagonal entry in the Hessian's CSC value array.
-    pub(crate) fn diagonal_slots(&self) -> &[usize] {
-        &self.diag_slots
-    }
-
     /// The full gradient from the most recent evaluation.
     pub(crate) fn last_gradient(&self) -> &[f64] {
         &self.gradient

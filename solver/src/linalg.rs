@@ -1,4 +1,4 @@
-//! Thin wrappers around faer's sparse factorizations with a fixed sparsity pattern.
+//! A thin wrapper around faer's sparse Cholesky factorization with a fixed sparsity pattern.
 //!
 //! The symbolic analysis (fill-reducing ordering, elimination tree, supernodes) is done once in
 //! `new`; `factorize` only redoes the numeric part for new values on the same pattern. All
@@ -10,9 +10,6 @@ use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
     factorize_symbolic_cholesky,
-};
-use faer::sparse::linalg::lu::{
-    LuRef, LuSymbolicParams, NumericLu, SymbolicLu, factorize_symbolic_lu,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
@@ -80,68 +77,6 @@ impl SparseLlt {
         }
         let n = rhs.len();
         LltRef::new(&self.symbolic, &self.l_values).solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(rhs, n, 1),
-            Par::Seq,
-            MemStack::new(&mut self.mem),
-        );
-        Ok(())
-    }
-}
-
-/// Sparse LU `P A Q = L U` (COLAMD column ordering, partial row pivoting) of a general square
-/// matrix given by its full pattern.
-pub(crate) struct SparseLu {
-    symbolic: SymbolicLu<usize>,
-    numeric: NumericLu<usize, f64>,
-    mem: MemBuffer,
-    factorized: bool,
-}
-
-impl SparseLu {
-    /// Symbolic analysis of the full pattern `pattern`.
-    pub(crate) fn new(pattern: SymbolicSparseColMatRef<'_, usize>) -> Result<Self, SolveError> {
-        let symbolic = factorize_symbolic_lu(pattern, LuSymbolicParams::default())
-            .map_err(|e| SolveError::LinearAlgebra(format!("symbolic LU: {e:?}")))?;
-        let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-        ]);
-        let mem = MemBuffer::try_new(req)
-            .map_err(|_| SolveError::LinearAlgebra("out of memory for LU workspace".into()))?;
-        Ok(Self {
-            symbolic,
-            numeric: NumericLu::new(),
-            mem,
-            factorized: false,
-        })
-    }
-
-    /// Numeric factorization of `a` (same pattern as in `new`). Only structural singularity is
-    /// reported here; numerical singularity shows up as non-finite or inaccurate solutions,
-    /// which callers check.
-    pub(crate) fn factorize(&mut self, a: SparseColMatRef<'_, usize, f64>) -> Result<(), String> {
-        self.factorized = false;
-        self.symbolic
-            .factorize_numeric_lu(
-                &mut self.numeric,
-                a,
-                Par::Seq,
-                MemStack::new(&mut self.mem),
-                Default::default(),
-            )
-            .map_err(|e| format!("LU: {e:?}"))?;
-        self.factorized = true;
-        Ok(())
-    }
-
-    /// Overwrites `rhs` with `A⁻¹ rhs` using the last successful factorization.
-    pub(crate) fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), String> {
-        if !self.factorized {
-            return Err("solve requested without a valid factorization".into());
-        }
-        let n = rhs.len();
-        LuRef::new_unchecked(&self.symbolic, &self.numeric).solve_in_place_with_conj(
             Conj::No,
             MatMut::from_column_major_slice_mut(rhs, n, 1),
             Par::Seq,

@@ -1,4 +1,4 @@
-//! Equality-constrained Newton (KKT system with sparse LU).
+//! Equality-constrained Newton (augmented KKT system, range-space solve).
 
 mod common;
 
@@ -229,4 +229,52 @@ fn constraint_removes_the_rigid_mode_of_a_floating_chain() {
     assert!(report.regularizations.iter().all(|&mu| mu == 0.0));
     let expected: Vec<f64> = (0..n).map(|i| 0.2 * (i as f64 - 12.0)).collect();
     assert_close(&x, &expected, 1e-12, "x");
+}
+
+/// `E = −x² + x⁴ + (y − 1)² + (y + z)²` on DOFs `(x, y, z)` under `y + 2z = 1`: started at
+/// `x = 0`, where `∂E/∂x = 0`, shifted Newton steps keep `x = 0` exactly and converge to the
+/// saddle; the negative-curvature direction along `x` must take the solve to a minimum,
+/// `x² = ½`.
+struct Saddle;
+
+impl Problem for Saddle {
+    fn n_dofs(&self) -> usize {
+        3
+    }
+    fn n_stencils(&self) -> usize {
+        1
+    }
+    fn stencil_dofs(&self, _: usize) -> &[usize] {
+        &[0, 1, 2]
+    }
+    fn eval_stencil(&self, _: usize, q: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        let (x, y, z) = (q[0], q[1], q[2]);
+        grad[0] = -2.0 * x + 4.0 * x.powi(3);
+        grad[1] = 2.0 * (y - 1.0) + 2.0 * (y + z);
+        grad[2] = 2.0 * (y + z);
+        if let Some(h) = hess {
+            h.copy_from_slice(&[-2.0 + 12.0 * x * x, 0.0, 0.0, 0.0, 4.0, 2.0, 0.0, 2.0, 2.0]);
+        }
+        -x * x + x.powi(4) + (y - 1.0).powi(2) + (y + z).powi(2)
+    }
+}
+
+#[test]
+fn constrained_newton_leaves_a_saddle_with_no_gradient_along_its_unstable_mode() {
+    let constraints = LinearConstraints::new(3, &[(0, 1, 1.0), (0, 2, 2.0)], &[1.0]).unwrap();
+    let settings = NewtonSettings {
+        project_spd: false,
+        ..NewtonSettings::default()
+    };
+    let mut q = vec![0.0, 3.0, -1.0];
+    let report = minimize_constrained(&Saddle, &mut q, &constraints, &settings).unwrap();
+    assert!(report.converged());
+    assert!(
+        (q[0] * q[0] - 0.5).abs() < 1e-10,
+        "x = {} (a saddle at x = 0 is not a minimum)",
+        q[0]
+    );
+    assert!((q[1] + 2.0 * q[2] - 1.0).abs() < 1e-12);
+    // Every accepted step of an indefinite reduced Hessian was shifted.
+    assert!(report.regularizations.iter().any(|&mu| mu > 0.0));
 }

@@ -73,9 +73,24 @@ pub struct Equilibrium {
     pub iterations: usize,
 }
 
+/// How much wider the pair search is when a solve starts over (see [`solve_equilibrium`]).
+const RESTART_MARGIN_FACTOR: f64 = 2.0;
+
 /// Solves for the equilibrium of `tile` under `coarse`, starting from `start` (or the tile's
 /// rest state), rebuilding the contact pairs until no pair outside the problem comes within
 /// the cutoff. Errors if Newton fails or the pairs do not settle.
+///
+/// **Pair updates.** The problem's pairs are those within `pair_margin × cutoff` of the
+/// current state, united with every pair of earlier rounds (a pair never leaves during one
+/// solve). A rebuild continues from the last equilibrium. Yarns that are not a pair of the
+/// problem do not see each other (neither the energy nor the collision filter does), so a
+/// round can move yarns into each other's contact range, or through each other, and the
+/// Newton solve of that round or the next can stall. When a round fails, the solve starts
+/// once more from `start`, with every pair found so far and those within
+/// `2 × pair_margin × cutoff` of `start`, which the filter keeps apart from the beginning.
+/// On the real stockinette under −40.6 % biaxial compression, continued from −37.5 %: the
+/// first round (1714 pairs) stalls at residual 1.5 after 200 iterations, the restart (10 741
+/// pairs) converges in 31.
 pub fn solve_equilibrium(
     tile: &Tile,
     model: &YarnModel,
@@ -83,23 +98,42 @@ pub fn solve_equilibrium(
     start: Option<&[f64]>,
     settings: &EquilibriumSettings,
 ) -> Result<Equilibrium, PeriodicError> {
-    let mut x = match start {
+    let start = match start {
         Some(s) => s.to_vec(),
         None => initial_dofs(tile)?,
     };
-    if x.len() != 4 * tile.n_vertices() {
+    if start.len() != 4 * tile.n_vertices() {
         return Err(PeriodicError::Invalid(format!(
             "start has {} DOFs, expected {}",
-            x.len(),
+            start.len(),
             4 * tile.n_vertices()
         )));
     }
+    let mut x = start.clone();
     let mut iterations = 0;
+    let mut known: Vec<ContactPair> = Vec::new();
+    let mut restarted = false;
     for _ in 0..=settings.max_pair_updates {
-        let pairs = PeriodicTile::find_pairs(tile, model, &coarse, &x, settings.pair_margin)?;
-        let problem = PeriodicTile::new(tile, *model, coarse, pairs)?;
+        let margin = if restarted {
+            RESTART_MARGIN_FACTOR * settings.pair_margin
+        } else {
+            settings.pair_margin
+        };
+        let near = PeriodicTile::find_pairs(tile, model, &coarse, &x, margin)?;
+        known = union(&known, &near);
+        let problem = PeriodicTile::new(tile, *model, coarse, known.clone())?;
         let constraints = problem.constraints()?;
-        let report = minimize_constrained(&problem, &mut x, &constraints, &settings.newton)?;
+        let report = match minimize_constrained(&problem, &mut x, &constraints, &settings.newton) {
+            Ok(report) => report,
+            Err(e) if !restarted => {
+                // Start over with every pair seen so far (see the documentation).
+                iterations += e.report().map_or(0, |r| r.iterations);
+                restarted = true;
+                x.clone_from(&start);
+                continue;
+            }
+            Err(e) => return Err(e.into()),
+        };
         iterations += report.iterations;
         let needed = PeriodicTile::find_pairs(tile, model, &coarse, &x, 1.0)?;
         if needed
@@ -124,4 +158,12 @@ pub fn solve_equilibrium(
         "contact pairs did not settle after {} rebuilds",
         settings.max_pair_updates
     )))
+}
+
+/// The sorted union of two sorted pair lists.
+fn union(a: &[ContactPair], b: &[ContactPair]) -> Vec<ContactPair> {
+    let mut out: Vec<ContactPair> = a.iter().chain(b).copied().collect();
+    out.sort_unstable();
+    out.dedup();
+    out
 }

@@ -26,6 +26,13 @@ pub(crate) trait NewtonSystem {
     /// `Some(feasible, ‖Cx − d‖∞)` for constrained systems.
     fn violation(&self, x: &[f64], settings: &NewtonSettings) -> Option<(bool, f64)>;
 
+    /// After a successful solve with a positive shift: a unit direction (2-norm, feasible
+    /// for the constraints' null space) along which the unshifted Hessian curves down, and
+    /// its curvature `dᵀHd < 0`; `None` when none was found or the back end cannot tell.
+    fn negative_curvature(&mut self, _asm: &Assembler, _direction: &mut [f64]) -> Option<f64> {
+        None
+    }
+
     /// Iterations of the last successful linear solve (0 for direct solvers).
     fn last_linear_iterations(&self) -> usize {
         0
@@ -291,6 +298,9 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
             if mu == 0.0 && iterate.feasible && inf_norm(&self.dx) <= settings.step_tol {
                 return Ok(Iteration::Stop(Termination::StepTolerance, String::new()));
             }
+            if mu > 0.0 && !settings.project_spd {
+                self.add_negative_curvature();
+            }
             match self.step_length(x, iterate)? {
                 Some(alpha) => {
                     let alpha = self.extend_along_negative_curvature(x, iterate, alpha)?;
@@ -342,6 +352,33 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
             (best, best_energy) = (a, e);
         }
         Ok(best)
+    }
+
+    /// Adds to the shifted step `Δx` a direction `v` of negative curvature of the same length,
+    /// signed downhill (`gᵀv ≤ 0`), when the back end finds one. A shifted Newton step cannot
+    /// leave a saddle whose unstable mode has no gradient component (e.g. a tile kept
+    /// symmetric): the iterates converge to the saddle, linearly, at the shift's rate.
+    /// Moré & Sorensen (1979) combine the two directions the same way; the step doubling of
+    /// [`Self::extend_along_negative_curvature`] then grows the escape.
+    fn add_negative_curvature(&mut self) {
+        let mut v = std::mem::take(&mut self.x_trial);
+        if let Some(curvature) = self.system.negative_curvature(self.asm, &mut v)
+            && curvature < 0.0
+        {
+            let length = self.dx.iter().map(|d| d * d).sum::<f64>().sqrt();
+            let slope: f64 = self
+                .asm
+                .last_gradient()
+                .iter()
+                .zip(&v)
+                .map(|(g, d)| g * d)
+                .sum();
+            let sign = if slope > 0.0 { -1.0 } else { 1.0 };
+            for (d, vi) in self.dx.iter_mut().zip(&v) {
+                *d += sign * length * vi;
+            }
+        }
+        self.x_trial = v;
     }
 
     /// The step length along `dx`: the full admissible step without a line search, else the
