@@ -13,6 +13,7 @@ pub mod deform_throughput;
 pub mod deform_time_vs_error;
 pub mod periodic_bending;
 pub mod periodic_curves;
+pub mod periodic_databases;
 pub mod periodic_tiles;
 pub mod periodic_time_vs_error;
 pub mod persistent_curl;

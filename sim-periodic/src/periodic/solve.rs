@@ -2,8 +2,9 @@
 
 use super::{ContactPair, PeriodicError, PeriodicTile, YarnModel};
 use crate::coarse::Coarse;
-use nalgebra::Matrix2;
+use nalgebra::{Matrix2, Vector2};
 use solver::{NewtonSettings, minimize_constrained};
+use yarn_pattern::strain::sqrt_spd2;
 use yarn_pattern::tile::Tile;
 
 /// Initial DOFs of a tile: zero fluctuation, the tile's twist angles (`*Q`'s `t` column
@@ -80,6 +81,15 @@ const RESTART_MARGIN_FACTOR: f64 = 2.0;
 /// rest state), rebuilding the contact pairs until no pair outside the problem comes within
 /// the cutoff. Errors if Newton fails or the pairs do not settle.
 ///
+/// **Rotations.** The energy is objective, so the equilibria under `F₂ = R U` are those under
+/// the stretch `U = √(F₂ᵀF₂)` with every fluctuation rotated by `R` (in-plane; twists
+/// unchanged) and the stress `∂Ψ/∂F₂ = R ∂Ψ/∂U`. A flat solve therefore runs under `U` (the
+/// start rotated by `Rᵀ`) and rotates the result, so the pulled-back displacements do not
+/// depend on `R` — not even through which of several equilibria a solve reaches (a solve
+/// under `R U` itself follows rotated iterates only up to rounding and the fixed search
+/// directions of the negative-curvature steps, and reached a different equilibrium of the
+/// real stockinette, Ψ 0.2 % lower, at `R = R(0.3)`, sx = 0.1, sa = 0.2, sy = −0.05).
+///
 /// **Pair updates.** The problem's pairs are those within `pair_margin × cutoff` of the
 /// current state, united with every pair of earlier rounds (a pair never leaves during one
 /// solve). A rebuild continues from the last equilibrium. Yarns that are not a pair of the
@@ -92,6 +102,45 @@ const RESTART_MARGIN_FACTOR: f64 = 2.0;
 /// first round (1714 pairs) stalls at residual 1.5 after 200 iterations, the restart (10 741
 /// pairs) converges in 31.
 pub fn solve_equilibrium(
+    tile: &Tile,
+    model: &YarnModel,
+    coarse: Coarse,
+    start: Option<&[f64]>,
+    settings: &EquilibriumSettings,
+) -> Result<Equilibrium, PeriodicError> {
+    // Flat: solve under the stretch U of the polar decomposition F₂ = R U and rotate back
+    // (see the documentation).
+    if coarse.curvature.is_some() || !coarse.f.iter().all(|v| v.is_finite()) {
+        return solve_under(tile, model, coarse, start, settings);
+    }
+    let u = sqrt_spd2(&(coarse.f.transpose() * coarse.f));
+    let Some(r) = u.try_inverse().map(|u_inv| coarse.f * u_inv) else {
+        return solve_under(tile, model, coarse, start, settings);
+    };
+    // Symmetric F₂ (every database sample, `F₂ = √I`): R = I up to rounding.
+    if (r - Matrix2::identity()).amax() <= 1e-12 {
+        return solve_under(tile, model, coarse, start, settings);
+    }
+    let rotate = |x: &mut [f64], r: &Matrix2<f64>| {
+        for v in 0..x.len() / 4 {
+            let w = r * Vector2::new(x[3 * v], x[3 * v + 1]);
+            (x[3 * v], x[3 * v + 1]) = (w.x, w.y);
+        }
+    };
+    let start = start.map(|s| {
+        let mut s = s.to_vec();
+        rotate(&mut s, &r.transpose());
+        s
+    });
+    let mut eq = solve_under(tile, model, Coarse::in_plane(u), start.as_deref(), settings)?;
+    rotate(&mut eq.dofs, &r);
+    eq.stress = r * eq.stress;
+    eq.coarse = coarse;
+    Ok(eq)
+}
+
+/// [`solve_equilibrium`] under `coarse` itself.
+fn solve_under(
     tile: &Tile,
     model: &YarnModel,
     coarse: Coarse,

@@ -90,3 +90,51 @@ pub fn assert_assembled_derivatives(tile: &Tile, model: YarnModel, coarse: Coars
         }
     }
 }
+
+/// The tile repeated `k × k` times as one larger periodic tile (copy `(i, j)` of vertex `v` is
+/// vertex `v + n (i + k j)`); edge data travel with their copies.
+pub fn repeated(tile: &Tile, k: i32) -> Tile {
+    let n = tile.n_vertices();
+    let copy = |v: usize, i: i32, j: i32| v + n * (i + k * j) as usize;
+    let mut big = tile.clone();
+    big.period = [k as f64 * tile.period[0], k as f64 * tile.period[1]];
+    let (mut positions, mut edges) = (vec![], vec![]);
+    for j in 0..k {
+        for i in 0..k {
+            for v in 0..n {
+                positions.push(tile.positions[v] + tile.period_offset([i, j]));
+            }
+            for e in &tile.edges {
+                let (ti, tj) = (i + e.shift[0], j + e.shift[1]);
+                edges.push(yarn_pattern::tile::Edge {
+                    v0: copy(e.v0, i, j),
+                    v1: copy(e.v1, ti.rem_euclid(k), tj.rem_euclid(k)),
+                    shift: [ti.div_euclid(k), tj.div_euclid(k)],
+                });
+            }
+        }
+    }
+    let times = |v: &Vec<f64>| v.repeat((k * k) as usize);
+    big.positions = positions;
+    big.edges = edges;
+    big.twists = times(&tile.twists);
+    big.rest_lengths = times(&tile.rest_lengths);
+    big.rest_twists = times(&tile.rest_twists);
+    big.reference_twists = times(&tile.reference_twists);
+    big.rest_curvatures = tile.rest_curvatures.repeat((k * k) as usize);
+    big.reference_directors = tile.reference_directors.repeat((k * k) as usize);
+    big.validate().unwrap();
+    big
+}
+
+/// The DOFs of `repeated(tile, k)` that replicate the small tile's `dofs` (fluctuations, then
+/// twists) in every copy; positions F X + ũ are then the periodic copies.
+pub fn replicated_dofs(dofs: &[f64], n: usize, k: usize) -> Vec<f64> {
+    let copies = k * k;
+    let mut x = vec![0.0; 4 * copies * n];
+    for c in 0..copies {
+        x[3 * n * c..3 * n * (c + 1)].copy_from_slice(&dofs[..3 * n]);
+        x[3 * n * copies + n * c..3 * n * copies + n * (c + 1)].copy_from_slice(&dofs[3 * n..]);
+    }
+    x
+}
