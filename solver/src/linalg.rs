@@ -85,3 +85,17 @@ impl SparseLlt {
         Ok(())
     }
 }
+
+/// `vᵀHv` for a symmetric `H` stored as one triangle (either).
+pub(crate) fn symmetric_quadratic_form(h: SparseColMatRef<'_, usize, f64>, v: &[f64]) -> f64 {
+    let (sym, values) = (h.symbolic(), h.val());
+    let mut sum = 0.0;
+    for (j, &vj) in v.iter().enumerate() {
+        let range = sym.col_range(j);
+        for (&i, &hij) in sym.row_idx()[range.clone()].iter().zip(&values[range]) {
+            let w = hij * v[i] * vj;
+            sum += if i == j { w } else { 2.0 * w };
+        }
+    }
+    sum
+}

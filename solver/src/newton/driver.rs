@@ -29,7 +29,13 @@ pub(crate) trait NewtonSystem {
     /// After a successful solve with a positive shift: a unit direction (2-norm, feasible
     /// for the constraints' null space) along which the unshifted Hessian curves down, and
     /// its curvature `dᵀHd < 0`; `None` when none was found or the back end cannot tell.
-    fn negative_curvature(&mut self, _asm: &Assembler, _direction: &mut [f64]) -> Option<f64> {
+    /// `max_iterations` bounds the back end's search (e.g. inverse iterations).
+    fn negative_curvature(
+        &mut self,
+        _asm: &Assembler,
+        _direction: &mut [f64],
+        _max_iterations: usize,
+    ) -> Option<f64> {
         None
     }
 
@@ -64,6 +70,12 @@ impl From<&str> for SystemFailure {
         Self::Retry(msg.to_owned())
     }
 }
+
+/// Iterations of the negative-curvature search per shifted step (a search of 128 when the run
+/// stalls made the basket weave's 5³ database 3× slower and left a sample unsolved).
+const CURVATURE_SEARCH: usize = 16;
+/// A run stalls when its residual fell by less than half over this many iterations.
+const STALL_WINDOW: usize = 3;
 
 /// Outcome of one line search.
 enum LineSearch {
@@ -299,7 +311,7 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
                 return Ok(Iteration::Stop(Termination::StepTolerance, String::new()));
             }
             if mu > 0.0 && !settings.project_spd {
-                self.add_negative_curvature();
+                self.add_negative_curvature(iterate.noise);
             }
             match self.step_length(x, iterate)? {
                 Some(alpha) => {
@@ -354,18 +366,31 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
         Ok(best)
     }
 
-    /// Adds to the shifted step `Δx` a direction `v` of negative curvature of the same length,
-    /// signed downhill (`gᵀv ≤ 0`), when the back end finds one. A shifted Newton step cannot
-    /// leave a saddle whose unstable mode has no gradient component (e.g. a tile kept
-    /// symmetric): the iterates converge to the saddle, linearly, at the shift's rate.
-    /// Moré & Sorensen (1979) combine the two directions the same way; the step doubling of
-    /// [`Self::extend_along_negative_curvature`] then grows the escape.
-    fn add_negative_curvature(&mut self) {
+    /// Adds to the shifted step `Δx` a direction `v` of negative curvature `θ = vᵀHv < 0`
+    /// (unit 2-norm), signed downhill (`gᵀv ≤ 0`), when the back end finds one. A shifted
+    /// Newton step cannot leave a saddle whose unstable mode has no gradient component (e.g.
+    /// a tile kept symmetric): the iterates converge to the saddle, linearly, at the shift's
+    /// rate. Moré & Sorensen (1979) combine the two directions the same way; the step doubling
+    /// of [`Self::extend_along_negative_curvature`] then grows the escape. `v` gets the length
+    /// `‖Δx‖₂`; when the run stalls (residual down by less than half in [`STALL_WINDOW`]
+    /// iterations), at least the `t` at which the model's decrease `½|θ|t²` is a thousand
+    /// times the energy's rounding level `noise` (near a saddle `Δx` itself vanishes, and so
+    /// would an escape scaled by it).
+    fn add_negative_curvature(&mut self, noise: f64) {
+        // Stalled: the residual fell by less than half over the last few iterations.
+        let history = &self.report.residual_history;
+        let stalled = history.len() > STALL_WINDOW
+            && history[history.len() - 1] > 0.5 * history[history.len() - 1 - STALL_WINDOW];
         let mut v = std::mem::take(&mut self.x_trial);
-        if let Some(curvature) = self.system.negative_curvature(self.asm, &mut v)
+        if let Some(curvature) = self
+            .system
+            .negative_curvature(self.asm, &mut v, CURVATURE_SEARCH)
             && curvature < 0.0
         {
-            let length = self.dx.iter().map(|d| d * d).sum::<f64>().sqrt();
+            let mut length = self.dx.iter().map(|d| d * d).sum::<f64>().sqrt();
+            if stalled {
+                length = length.max((2e3 * noise / -curvature).sqrt());
+            }
             let slope: f64 = self
                 .asm
                 .last_gradient()
@@ -492,17 +517,7 @@ fn quadratic_form(asm: &Assembler, dx: &[f64]) -> f64 {
             v[f] = d;
         }
     }
-    let h = asm.hessian();
-    let (sym, values) = (h.symbolic(), h.val());
-    let mut sum = 0.0;
-    for (j, &vj) in v.iter().enumerate() {
-        let range = sym.col_range(j);
-        for (&i, &hij) in sym.row_idx()[range.clone()].iter().zip(&values[range]) {
-            let w = hij * v[i] * vj;
-            sum += if i == j { w } else { 2.0 * w };
-        }
-    }
-    sum
+    crate::linalg::symmetric_quadratic_form(asm.hessian(), &v)
 }
 
 /// `max_i |H_ii|` of the assembled Hessian, or 1 if that is zero (the scale of the shift).
