@@ -32,6 +32,31 @@ pub const SA: [f64; 2] = [-0.2, 0.2];
 /// Sampled range of `sy` (unitless).
 pub const SY: [f64; 2] = [-0.1, 0.3];
 
+/// The strain box a database samples: `[min, max]` of sx, sa and sy.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StrainBox {
+    /// Range of `sx`.
+    pub sx: [f64; 2],
+    /// Range of `sa`.
+    pub sa: [f64; 2],
+    /// Range of `sy`.
+    pub sy: [f64; 2],
+}
+
+/// The box of the deformer figures ([`SX`], [`SA`], [`SY`]).
+pub const SMALL_BOX: StrainBox = StrainBox {
+    sx: SX,
+    sa: SA,
+    sy: SY,
+};
+
+/// The full published range of seed 004's databases: sx, sy ∈ [−0.2, 1.0], sa ∈ [−0.7, 0.7].
+pub const PUBLISHED_BOX: StrainBox = StrainBox {
+    sx: [-0.2, 1.0],
+    sa: [-0.7, 0.7],
+    sy: [-0.2, 1.0],
+};
+
 /// The tile the databases are relative to.
 #[derive(Clone, Debug)]
 pub struct Reference {
@@ -48,6 +73,8 @@ pub struct Reference {
 pub struct RealDatabase {
     /// Samples per axis.
     pub n: usize,
+    /// The sampled strain box.
+    pub strain_box: StrainBox,
     /// The generation result (database, per-sample records, wall time).
     pub generated: Generated,
 }
@@ -102,12 +129,17 @@ pub fn reference(ctx: &FigureContext) -> anyhow::Result<Arc<Reference>> {
     Ok(r)
 }
 
-/// The uniform axes `[sx, sa, sy]` with `n` samples each.
+/// The uniform axes `[sx, sa, sy]` of [`SMALL_BOX`] with `n` samples each.
 pub fn axes(n: usize) -> [Vec<f64>; 3] {
+    axes_in(n, &SMALL_BOX)
+}
+
+/// The uniform axes `[sx, sa, sy]` of `b` with `n` samples each.
+pub fn axes_in(n: usize, b: &StrainBox) -> [Vec<f64>; 3] {
     [
-        uniform_axis(SX[0], SX[1], n),
-        uniform_axis(SA[0], SA[1], n),
-        uniform_axis(SY[0], SY[1], n),
+        uniform_axis(b.sx[0], b.sx[1], n),
+        uniform_axis(b.sa[0], b.sa[1], n),
+        uniform_axis(b.sy[0], b.sy[1], n),
     ]
 }
 
@@ -117,11 +149,20 @@ pub fn databases(
     ctx: &FigureContext,
     densities: &[usize],
 ) -> anyhow::Result<Vec<Arc<RealDatabase>>> {
+    databases_in(ctx, densities, &SMALL_BOX)
+}
+
+/// [`databases`] over the strain box `b`.
+pub fn databases_in(
+    ctx: &FigureContext,
+    densities: &[usize],
+    b: &StrainBox,
+) -> anyhow::Result<Vec<Arc<RealDatabase>>> {
     let total: usize = densities.iter().map(|n| n * n * n).sum();
     let progress = ctx.progress(total as u64, "database samples");
     let dbs = densities
         .iter()
-        .map(|&n| database(ctx, n, &|| progress.inc(1)))
+        .map(|&n| database_in(ctx, n, b, &|| progress.inc(1)))
         .collect::<anyhow::Result<Vec<_>>>()?;
     progress.finish_and_clear();
     Ok(dbs)
@@ -134,6 +175,16 @@ pub fn database(
     n: usize,
     progress: &(dyn Fn() + Sync),
 ) -> anyhow::Result<Arc<RealDatabase>> {
+    database_in(ctx, n, &SMALL_BOX, progress)
+}
+
+/// [`database`] over the strain box `b`.
+pub fn database_in(
+    ctx: &FigureContext,
+    n: usize,
+    b: &StrainBox,
+    progress: &(dyn Fn() + Sync),
+) -> anyhow::Result<Arc<RealDatabase>> {
     let reference = reference(ctx)?;
     let run_cache = ctx.cache.get::<RealCache>();
     // Held during generation: figures run one after another, and a second caller for the
@@ -142,19 +193,23 @@ pub fn database(
         .databases
         .lock()
         .map_err(|_| anyhow!("database cache lock poisoned"))?;
-    if let Some(db) = cache.iter().find(|d| d.n == n) {
+    if let Some(db) = cache.iter().find(|d| d.n == n && d.strain_box == *b) {
         return Ok(db.clone());
     }
     let generated = generate(
         &reference.tile,
         &reference.model,
-        axes(n),
+        axes_in(n, b),
         &DatabaseSettings::default(),
         None,
         &|_| progress(),
     )
     .with_context(|| format!("generating the {n}³ database"))?;
-    let db = Arc::new(RealDatabase { n, generated });
+    let db = Arc::new(RealDatabase {
+        n,
+        strain_box: *b,
+        generated,
+    });
     cache.push(db.clone());
     Ok(db)
 }
