@@ -26,9 +26,10 @@
 //! **Warm start.** The neighbour's fluctuation is carried over with its *material*
 //! displacement held, `ũ' = F₂' F₂⁻¹ ũ`, i.e. its ΔQ (Eq. 18) is the prediction, not its
 //! world-space `ũ`: under the new strain the yarn structure is stretched with the fabric
-//! instead of left where it was. On the real stockinette 9³ over the full range this took the
-//! database from 40.5 s to 34.4 s; the procedural seed's from 99 s with 2 unsolved samples to
-//! 23 s with none (dev profile, 2 threads).
+//! instead of left where it was. Together with the solver's larger augmentation this took the
+//! `periodic-databases` benchmark (9³, full range, dev profile, 2 threads) from 42.9 s to
+//! 35.7 s on the real stockinette and from 79.8 s with 2 unsolved samples to 23.5 s with none
+//! on the procedural seed.
 //!
 //! **Unsolvable samples.** Every Newton step is filtered so that no yarn passes through
 //! another ([`crate::periodic::PeriodicTile`]'s `max_step`). Far out in the strain range
@@ -607,9 +608,13 @@ pub fn continue_to(
 }
 
 /// The fluctuation `ũ` of an equilibrium under `from`, carried to `to` with its material
-/// displacement held: `ũ' = F₂' F₂⁻¹ ũ` in-plane (twists unchanged).
+/// displacement held: `ũ' = F₂' F₂⁻¹ ũ` in-plane (twists unchanged). Admissible strains have
+/// invertible `F₂`; were one singular, the fluctuation would be carried over unchanged.
 fn material_warm_start(dofs: &[f64], from: &Coarse, to: &Coarse) -> Vec<f64> {
-    let map = from.f.try_inverse().map_or_else(|| to.f, |inv| to.f * inv);
+    let map = from
+        .f
+        .try_inverse()
+        .map_or_else(nalgebra::Matrix2::identity, |inv| to.f * inv);
     let mut out = dofs.to_vec();
     for v in 0..dofs.len() / 4 {
         let u = map * nalgebra::Vector2::new(dofs[3 * v], dofs[3 * v + 1]);

@@ -29,8 +29,8 @@
 //! and the shift grows for nothing: with `ρ = max_i |H_ii|`, a taut plain weave (sx = 1,
 //! sa = 0.175, sy = 0.7) kept a shift of 824 (`K` had an eigenvalue of −172 along a mode
 //! sliding two yarns against their no-sliding anchors) and stalled at a residual of 3e-6;
-//! with 100× it converges in 8 iterations, and its 9³ database went from 6 unsolved samples
-//! in 11.3 s to none in 2.0 s (10⁴× gave the same).
+//! with 100× it converges in 8 iterations, and its 9³ database (the `periodic-databases`
+//! benchmark) went from 6 unsolved samples in 11.3 s to none in 2.0 s (10⁴× gave the same).
 //!
 //! *Why this and not a factorization of the indefinite KKT matrix.* A failed Cholesky
 //! factorization is an inertia test: it says that the reduced Hessian (plus shift) is not
@@ -38,9 +38,8 @@
 //! accepted step is a descent direction of a convex model (IPOPT's inertia correction,
 //! Wächter & Biegler 2006, §3.1). The earlier sparse LU of the KKT matrix took any
 //! nonsingular indefinite system, and its steps towards saddles stalled in jammed yarn
-//! contacts. It is also faster: on the real stockinette tile (400 DOFs, 7 constraints, 12 710
-//! Hessian entries, measured in a dev-profile run) the numeric LU took 3.2 ms, the Cholesky
-//! of `K` about 0.8 ms. The fill of `ĈᵀĈ` is the square of each row's length (the zero-mean
+//! contacts (the `periodic-databases` benchmark measures the database times). The fill of
+//! `ĈᵀĈ` is the square of each row's length (the zero-mean
 //! rows of a periodic tile couple all vertices), so the method suits few or short
 //! constraint rows; its cost grows with `m` through the `m` solves for `Y`.
 //!
@@ -245,13 +244,14 @@ struct KktSystem {
     schur: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
     /// `ρ` of the current factorization.
     rho: f64,
-    /// Shift `μ` of the current factorization, and whether it is of `H` (else of `I`).
+    /// Shift `μ` of the current factorization.
     mu: f64,
-    of_h: bool,
-    /// Step `[Δx; λ̂]` and scratch of the same length.
+    /// Step `[Δx; λ̂]`, the right-hand side, and scratch of the same length (`work` for the
+    /// factored solve, `saved_rhs` for the right-hand side during refinement).
     sol: Vec<f64>,
     work: Vec<f64>,
     rhs: Vec<f64>,
+    saved_rhs: Vec<f64>,
     /// Cholesky factor of `ĈĈᵀ` (dense, `m ≤ MAX_DENSE_MULTIPLIERS`) for the least-squares
     /// multipliers of the stationarity test.
     normal: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
@@ -330,7 +330,7 @@ impl KktSystem {
             schur: None,
             rho: 0.0,
             mu: 0.0,
-            of_h: false,
+            saved_rhs: vec![0.0; n + m],
             sol: vec![0.0; n + m],
             work: vec![0.0; n + m],
             rhs: vec![0.0; n + m],
@@ -392,7 +392,7 @@ impl KktSystem {
         for &(slot, g) in &self.gram {
             values[slot] += self.rho * g;
         }
-        (self.mu, self.of_h) = (mu, h.is_some());
+        self.mu = mu;
         self.schur = None;
         self.llt.factorize(self.k.as_ref())?;
         // Y = K⁻¹Ĉᵀ, then the Schur complement ĈY.
@@ -455,13 +455,13 @@ impl KktSystem {
     fn solve_refined(&mut self, h: Option<SparseColMatRef<'_, usize, f64>>) -> Result<(), String> {
         self.solve_factored()?;
         self.sol.copy_from_slice(&self.work);
-        let saved = self.rhs.clone();
+        self.saved_rhs.copy_from_slice(&self.rhs);
         self.residual_into_rhs(h);
         self.solve_factored()?;
         for (s, w) in self.sol.iter_mut().zip(&self.work) {
             *s += w;
         }
-        self.rhs = saved;
+        std::mem::swap(&mut self.rhs, &mut self.saved_rhs);
         if self.sol.iter().all(|v| v.is_finite()) {
             Ok(())
         } else {
@@ -498,7 +498,6 @@ impl KktSystem {
             p[c] -= w * lambda[r];
             q[r] -= w * x[c];
         }
-        debug_assert!(self.of_h == h.is_some());
     }
 
     /// Rejects a rank-deficient `C` (see the module documentation).
@@ -513,15 +512,9 @@ impl KktSystem {
             ))
         };
         self.factorize(None, 0.0).map_err(dependent)?;
-        // Fixed xorshift sequence in [1, 2): generic, deterministic.
-        let mut seed = 0x9E37_79B9_7F4A_7C15_u64;
+        // A fixed pseudo-random right-hand side in [1, 2): generic, deterministic.
         self.rhs[..self.n].fill(0.0);
-        for r in self.rhs[self.n..].iter_mut() {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            *r = 1.0 + (seed >> 11) as f64 / (1u64 << 53) as f64;
-        }
+        pseudo_random(0x9E37_79B9_7F4A_7C15, 1.0, &mut self.rhs[self.n..]);
         let solved = self.solve_refined(None);
         let norm = inf_norm(&self.rhs);
         self.residual_into_rhs(None);
@@ -594,25 +587,15 @@ impl NewtonSystem for KktSystem {
         Some((self.feasible(x, v, settings), v))
     }
 
-    fn negative_curvature(
-        &mut self,
-        asm: &Assembler,
-        direction: &mut [f64],
-        max_iterations: usize,
-    ) -> Option<f64> {
+    fn negative_curvature(&mut self, asm: &Assembler, direction: &mut [f64]) -> Option<f64> {
         let n = self.n;
         // Inverse iteration with the shifted factorization, projected onto the null space
         // of C: converges to the eigenvector of the lowest eigenvalue of the reduced H.
-        let mut seed = 0x2545_F491_4F6C_DD1D_u64;
-        for v in &mut self.rhs[..n] {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            *v = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-        }
+        // A fixed start in [−½, ½): generic, deterministic.
+        pseudo_random(0x2545_F491_4F6C_DD1D, -0.5, &mut self.rhs[..n]);
         self.rhs[n..].fill(0.0);
         let mut curvature = f64::NAN;
-        for _ in 0..max_iterations {
+        for _ in 0..CURVATURE_SEARCH {
             self.solve_factored().ok()?;
             let norm = self.work[..n].iter().map(|v| v * v).sum::<f64>().sqrt();
             if !(norm > 0.0 && norm.is_finite()) {
@@ -629,6 +612,20 @@ impl NewtonSystem for KktSystem {
         }
         direction.copy_from_slice(&self.rhs[..n]);
         Some(curvature)
+    }
+}
+
+/// Inverse iterations of [`NewtonSystem::negative_curvature`] (a search of 128 when the run
+/// stalled made the basket weave's 5³ database 3× slower and left a sample unsolved).
+const CURVATURE_SEARCH: usize = 16;
+
+/// Fills `out` with a fixed xorshift sequence, uniform in `[offset, offset + 1)`.
+fn pseudo_random(mut seed: u64, offset: f64, out: &mut [f64]) {
+    for v in out {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        *v = offset + (seed >> 11) as f64 / (1u64 << 53) as f64;
     }
 }
 

@@ -29,13 +29,7 @@ pub(crate) trait NewtonSystem {
     /// After a successful solve with a positive shift: a unit direction (2-norm, feasible
     /// for the constraints' null space) along which the unshifted Hessian curves down, and
     /// its curvature `dᵀHd < 0`; `None` when none was found or the back end cannot tell.
-    /// `max_iterations` bounds the back end's search (e.g. inverse iterations).
-    fn negative_curvature(
-        &mut self,
-        _asm: &Assembler,
-        _direction: &mut [f64],
-        _max_iterations: usize,
-    ) -> Option<f64> {
+    fn negative_curvature(&mut self, _asm: &Assembler, _direction: &mut [f64]) -> Option<f64> {
         None
     }
 
@@ -71,9 +65,6 @@ impl From<&str> for SystemFailure {
     }
 }
 
-/// Iterations of the negative-curvature search per shifted step (a search of 128 when the run
-/// stalls made the basket weave's 5³ database 3× slower and left a sample unsolved).
-const CURVATURE_SEARCH: usize = 16;
 /// A run stalls when its residual fell by less than half over this many iterations.
 const STALL_WINDOW: usize = 3;
 
@@ -382,9 +373,7 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
         let stalled = history.len() > STALL_WINDOW
             && history[history.len() - 1] > 0.5 * history[history.len() - 1 - STALL_WINDOW];
         let mut v = std::mem::take(&mut self.x_trial);
-        if let Some(curvature) = self
-            .system
-            .negative_curvature(self.asm, &mut v, CURVATURE_SEARCH)
+        if let Some(curvature) = self.system.negative_curvature(self.asm, &mut v)
             && curvature < 0.0
         {
             let mut length = self.dx.iter().map(|d| d * d).sum::<f64>().sqrt();
