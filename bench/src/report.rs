@@ -74,6 +74,11 @@ pub struct Manifest {
     pub git_revision: String,
     /// Version of the `bench` crate.
     pub crate_version: String,
+    /// The Cargo profile the figures were built with: `"release"` (what `cargo xtask` builds)
+    /// or `"dev"` (tests); timings are only comparable within one profile. Manifests written
+    /// before this field existed were all built in the dev profile.
+    #[serde(default = "dev_profile")]
+    pub build_profile: String,
     /// UTC time the run finished, RFC 3339.
     pub timestamp: String,
     /// Wall time of the figure function in seconds.
@@ -82,6 +87,20 @@ pub struct Manifest {
     pub key_numbers: Vec<KeyNumber>,
     /// The figure's configuration.
     pub config: serde_json::Value,
+}
+
+/// The profile this crate was built with, as far as the compiler tells: `"dev"` with debug
+/// assertions, otherwise `"release"`.
+pub fn build_profile() -> &'static str {
+    if cfg!(debug_assertions) {
+        "dev"
+    } else {
+        "release"
+    }
+}
+
+fn dev_profile() -> String {
+    "dev".to_string()
 }
 
 /// One named key number of a manifest.
@@ -255,6 +274,7 @@ fn run_one(
             guarded: spec.guarded,
             git_revision: git_revision.to_string(),
             crate_version: env!("CARGO_PKG_VERSION").to_string(),
+            build_profile: build_profile().to_string(),
             timestamp: utc_timestamp(SystemTime::now()),
             wall_time_s: (run.wall_time.as_secs_f64() * 1e3).round() / 1e3,
             key_numbers: output
@@ -336,7 +356,10 @@ fn write_readme(specs: &[FigureSpec], reports_dir: &Path) -> anyhow::Result<()> 
                 } else {
                     numbers.join("; ")
                 };
-                format!("{numbers} ({mode}, rev {rev}, {})", m.timestamp)
+                format!(
+                    "{numbers} ({mode}, {} build, rev {rev}, {})",
+                    m.build_profile, m.timestamp
+                )
             }
         };
         writeln!(

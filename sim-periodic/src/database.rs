@@ -19,9 +19,14 @@
 //! strain: first along the `sx` line through it, then, in parallel for every `sx`, along `sy`,
 //! then, in parallel for every `(sx, sy)`, along `sa` — each sample warm-started from its
 //! neighbour one step closer to the root. A step whose Newton solve fails is split in half
-//! (up to [`DatabaseSettings::max_bisections`] times) before the sample is reported as failed.
-//! Where several equilibria exist (jammed states), a sample gets the one this path reaches,
-//! so the database is the same on every run, after a resume and with any thread count.
+//! (up to [`DatabaseSettings::max_bisections`] times). A sample its line still cannot reach
+//! is left to a repair pass once all lines are done: one sample at a time, in grid order, it
+//! is continued from each solved grid neighbour in the fixed order −sx, +sx, −sy, +sy, −sa,
+//! +sa until one succeeds (on the procedural satin, 9³ over the full range, this solves the
+//! one sample that the sa line misses, (−0.2, 0.175, 0.55)); only then is it reported as
+//! failed. Where several equilibria exist (jammed states), a sample gets the one this path
+//! reaches, so the database is the same on every run, after a resume and with any thread
+//! count.
 //!
 //! **Warm start.** The neighbour's fluctuation is carried over with its *material*
 //! displacement held, `ũ' = F₂' F₂⁻¹ ũ`, i.e. its ΔQ (Eq. 18) is the prediction, not its
@@ -346,6 +351,8 @@ pub fn generate(
         sy: axes[2][k],
     };
     let results: Mutex<Vec<Option<Solved>>> = Mutex::new(vec![None; dims.iter().product()]);
+    // The continuation error of every sample filled (for now) from its parent.
+    let failures: Mutex<Vec<(usize, GenerationError)>> = Mutex::new(vec![]);
 
     // Solves (or loads) the sample at `index`, warm-started from `from` (strain, DOFs);
     // returns the equilibrium its children continue from (the parent's when unsolved).
@@ -354,14 +361,22 @@ pub fn generate(
         let (record, parent) = match store.load(index, strain, tile)? {
             Some((record, dofs)) => (record, (strain, dofs)),
             None => {
-                let (record, parent) = solve_or_fill(tile, model, index, strain, from, settings)?;
+                let (record, parent, failure) =
+                    solve_or_fill(tile, model, index, strain, from, settings)?;
                 if record.solved {
                     store.save(&record, &parent.1)?;
+                } else if let Some(e) = failure {
+                    failures
+                        .lock()
+                        .expect("failures lock")
+                        .push((flat(index), e));
                 }
                 (record, parent)
             }
         };
-        progress(&record);
+        if record.solved {
+            progress(&record);
+        }
         results.lock().expect("results lock")[flat(index)] = Some((record, parent.clone()));
         Ok(parent)
     };
@@ -401,7 +416,76 @@ pub fn generate(
         line(1, seed, parent_at(seed))
     })?;
 
-    let results = results.into_inner().expect("results lock");
+    let mut results = results.into_inner().expect("results lock");
+    let mut failures = failures.into_inner().expect("failures lock");
+    failures.sort_by_key(|(f, _)| *f);
+    // Repair: a sample its line could not reach is tried again from each solved grid
+    // neighbour, in a fixed order, after all lines are done and one sample at a time, so the
+    // result does not depend on thread timing. Its children on the line have already
+    // continued from its parent, as for a filled sample. Repaired samples are not
+    // checkpointed: a resumed run reaches them the same way again.
+    let unravel = |f: usize| {
+        [
+            f % dims[0],
+            (f / dims[0]) % dims[1],
+            f / (dims[0] * dims[1]),
+        ]
+    };
+    for (f, error) in failures {
+        let index = unravel(f);
+        let strain = strain_at(index);
+        let t = Instant::now();
+        let mut repaired = None;
+        for (axis, delta) in [(0, -1), (0, 1), (2, -1), (2, 1), (1, -1), (1, 1)] {
+            let Some(i) = index[axis]
+                .checked_add_signed(delta)
+                .filter(|&i| i < dims[axis])
+            else {
+                continue;
+            };
+            let mut neighbour = index;
+            neighbour[axis] = i;
+            let Some((record, (from, dofs))) = &results[flat(neighbour)] else {
+                continue;
+            };
+            if !record.solved {
+                continue;
+            }
+            if let Ok((eq, iterations, substeps)) =
+                continue_to(tile, model, (*from, dofs), strain, settings)
+            {
+                repaired = Some((eq, iterations, substeps));
+                break;
+            }
+        }
+        match repaired {
+            Some((eq, iterations, substeps)) => {
+                if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
+                    return Err(GenerationError::NonFinite(strain));
+                }
+                let filled = results[f].as_ref().map_or(0.0, |(r, _)| r.seconds);
+                let record = SampleRecord {
+                    index,
+                    strain,
+                    density: eq.density,
+                    stress: eq.stress,
+                    iterations,
+                    substeps,
+                    seconds: filled + t.elapsed().as_secs_f64(),
+                    resumed: false,
+                    solved: true,
+                };
+                progress(&record);
+                results[f] = Some((record, (strain, eq.dofs)));
+            }
+            None if settings.fill_unsolved => {
+                if let Some((record, _)) = &results[f] {
+                    progress(record);
+                }
+            }
+            None => return Err(error),
+        }
+    }
     let (database, samples) = database_from(tile, axes, results)?;
     Ok(Generated {
         database,
@@ -418,9 +502,10 @@ type Parent = (Strain, Vec<f64>);
 type Solved = (SampleRecord, Parent);
 
 /// Solves the sample `index` (strain `strain_at(index)`) for [`generate`], continuing from
-/// `from` ([`continue_to`]); an unsolved sample with [`DatabaseSettings::fill_unsolved`] gets
-/// the state of `from`'s DOFs under its strain. Returns its record and the equilibrium its
-/// children continue from (`from` itself when unsolved).
+/// `from` ([`continue_to`]). A sample the continuation cannot reach gets, for now, the state of
+/// `from`'s DOFs under its strain (unsolved; [`generate`] tries to repair it later) and the
+/// continuation error. Returns its record, the equilibrium its children continue from (`from`
+/// itself when unsolved) and that error.
 fn solve_or_fill(
     tile: &Tile,
     model: &YarnModel,
@@ -428,7 +513,7 @@ fn solve_or_fill(
     strain: Strain,
     from: (Strain, &[f64]),
     settings: &DatabaseSettings,
-) -> Result<Solved, GenerationError> {
+) -> Result<(SampleRecord, Parent, Option<GenerationError>), GenerationError> {
     let t = Instant::now();
     match continue_to(tile, model, from, strain, settings) {
         Ok((eq, iterations, substeps)) => {
@@ -446,9 +531,9 @@ fn solve_or_fill(
                 resumed: false,
                 solved: true,
             };
-            Ok((record, (strain, eq.dofs)))
+            Ok((record, (strain, eq.dofs), None))
         }
-        Err(GenerationError::Solve { .. }) if settings.fill_unsolved => {
+        Err(error @ GenerationError::Solve { .. }) => {
             let (density, stress) =
                 state_under(tile, model, strain, from.1, settings).map_err(|source| {
                     GenerationError::Solve {
@@ -471,7 +556,7 @@ fn solve_or_fill(
                 resumed: false,
                 solved: false,
             };
-            Ok((record, (from.0, from.1.to_vec())))
+            Ok((record, (from.0, from.1.to_vec()), Some(error)))
         }
         Err(e) => Err(e),
     }
@@ -610,7 +695,7 @@ pub fn continue_to(
 /// The fluctuation `ũ` of an equilibrium under `from`, carried to `to` with its material
 /// displacement held: `ũ' = F₂' F₂⁻¹ ũ` in-plane (twists unchanged). Admissible strains have
 /// invertible `F₂`; were one singular, the fluctuation would be carried over unchanged.
-fn material_warm_start(dofs: &[f64], from: &Coarse, to: &Coarse) -> Vec<f64> {
+pub(crate) fn material_warm_start(dofs: &[f64], from: &Coarse, to: &Coarse) -> Vec<f64> {
     let map = from
         .f
         .try_inverse()
