@@ -122,6 +122,22 @@ pub fn uniaxial_curve(
     stretches: &[f64],
     settings: &CurveSettings,
 ) -> Result<Vec<CurvePoint>, CurveError> {
+    Ok(
+        uniaxial_curve_states(tile, model, direction, stretches, settings)?
+            .into_iter()
+            .map(|(point, _)| point)
+            .collect(),
+    )
+}
+
+/// [`uniaxial_curve`] with the equilibrium of every point.
+pub fn uniaxial_curve_states(
+    tile: &Tile,
+    model: &YarnModel,
+    direction: Direction,
+    stretches: &[f64],
+    settings: &CurveSettings,
+) -> Result<Vec<(CurvePoint, Equilibrium)>, CurveError> {
     if let Some(bad) = stretches.iter().find(|s| !(s.is_finite() && **s > -1.0)) {
         return Err(CurveError::Invalid(format!(
             "stretch {bad} must be finite and > -1"
@@ -133,7 +149,7 @@ pub fn uniaxial_curve(
     let mut c_prev = 0.0;
     let mut slope = 0.0; // dc/ds of the previous step
     let mut s_prev = 0.0;
-    let mut out = Vec::with_capacity(stretches.len());
+    let mut out: Vec<(CurvePoint, Equilibrium)> = Vec::with_capacity(stretches.len());
     for &s in stretches {
         let guess = (c_prev + slope * (s - s_prev)).min(0.9);
         let point = root_find(
@@ -147,15 +163,15 @@ pub fn uniaxial_curve(
             settings,
         )?;
         if let Some(last) = out.last() {
-            let last: &CurvePoint = last;
+            let last: &CurvePoint = &last.0;
             if (s - last.s).abs() > 0.0 {
                 slope = (point.0.c - last.c) / (s - last.s);
             }
         }
         c_prev = point.0.c;
         s_prev = s;
-        warm = Some(point.1);
-        out.push(point.0);
+        warm = Some(point.1.dofs.clone());
+        out.push(point);
     }
     Ok(out)
 }
@@ -175,7 +191,7 @@ fn root_find(
     guess: f64,
     warm: Option<&[f64]>,
     settings: &CurveSettings,
-) -> Result<(CurvePoint, Vec<f64>), CurveError> {
+) -> Result<(CurvePoint, Equilibrium), CurveError> {
     let mut solves = 0;
     let mut iterations = 0;
     let mut last_dofs: Option<Vec<f64>> = warm.map(<[f64]>::to_vec);
@@ -239,7 +255,7 @@ fn root_find(
         solves,
         iterations,
     };
-    Ok((point, eq.dofs))
+    Ok((point, eq))
 }
 
 /// One point of a bending curve.

@@ -22,6 +22,7 @@
 //! | [`pullback`] | material-space pullback of an equilibrium, seed 004 Eq. 18, for flat and bent (rolled) tiles |
 //! | [`bending_database`] | bending-direction databases per curvature (seed 004 Appendix C) from an in-plane database, restriction to nested grids |
 //! | [`periodic`] | the tile energy under a coarse deformation, constraints, equilibrium, stress |
+//! | [`fit`] | yarn-parameter estimation (seed 002 §7): rest-shape estimation, the objective of Eq. 11, particle swarm then COBYLA, resumable journal |
 //! | [`patterns`] | procedural pattern library: tile builder from yarn polylines, knit and weave guesses, relaxation |
 //!
 //! Bending is single curvature along either tile axis (the tile rolled onto a cylinder,
@@ -33,6 +34,7 @@ pub mod coarse;
 pub mod config;
 pub mod curves;
 pub mod database;
+pub mod fit;
 pub mod patterns;
 pub mod periodic;
 pub mod pullback;

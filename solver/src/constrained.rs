@@ -682,6 +682,47 @@ impl ConstrainedNewtonSolver {
         )
     }
 
+    /// Implicit differentiation at a constrained minimizer `x`: solves
+    ///
+    /// ```text
+    /// [H Cᵀ; C 0] [y; η] = [b; 0]
+    /// ```
+    ///
+    /// for every `b` of `rhs`, with `H` the Hessian at `x`. If a parameter `θ` moves the
+    /// gradient by `∂g/∂θ` (leaving `C` and `d` alone), the minimizer moves by `dx/dθ = y` for
+    /// `b = −∂g/∂θ`, and a quantity `Q(x, θ)` changes by `dQ/dθ = ∂Q/∂θ + ∂Q/∂x · y`; read
+    /// as an adjoint (the matrix is symmetric), one solve with `b = ∂Q/∂x` serves every
+    /// parameter. The factorization is the Newton step's without shift, with one refinement
+    /// step per right-hand side. Errors with [`SolveError::NotAStrictMinimum`] when the reduced
+    /// Hessian is not numerically positive definite.
+    pub fn sensitivities<P: Problem + ?Sized>(
+        &mut self,
+        problem: &P,
+        x: &[f64],
+        rhs: &[Vec<f64>],
+    ) -> Result<Vec<Vec<f64>>, SolveError> {
+        let n = self.assembler.n_dofs();
+        check_len("x", n, x.len())?;
+        for b in rhs {
+            check_len("right-hand side", n, b.len())?;
+        }
+        self.assembler.assemble(problem, x, false)?;
+        let h = self.assembler.hessian();
+        self.system
+            .factorize(Some(h.val()), 0.0)
+            .map_err(SolveError::NotAStrictMinimum)?;
+        let mut out = Vec::with_capacity(rhs.len());
+        for b in rhs {
+            self.system.rhs[..n].copy_from_slice(b);
+            self.system.rhs[n..].fill(0.0);
+            self.system
+                .solve_refined(Some(h))
+                .map_err(SolveError::NotAStrictMinimum)?;
+            out.push(self.system.sol[..n].to_vec());
+        }
+        Ok(out)
+    }
+
     /// The assembler (pattern, last gradient and Hessian).
     pub fn assembler(&self) -> &Assembler {
         &self.assembler

@@ -67,6 +67,10 @@ pub enum SolveError {
         /// What the linear algebra reported for the last attempt.
         detail: String,
     },
+    /// Implicit differentiation at a point whose reduced Hessian is not positive definite:
+    /// not a strict constrained minimizer, so its sensitivities are not defined.
+    #[error("sensitivities need a strict constrained minimizer: {0}")]
+    NotAStrictMinimum(String),
 }
 
 impl SolveError {

@@ -39,11 +39,13 @@ mod constraints;
 mod contacts;
 mod filter;
 mod model;
+mod sensitivity;
 mod solve;
 mod stress;
 
 pub use contacts::ContactPair;
 pub use model::{PeriodicError, YarnModel};
+pub use sensitivity::{Partial, stress_sensitivities};
 pub use solve::{Equilibrium, EquilibriumSettings, initial_dofs, solve_equilibrium};
 
 use crate::coarse::Coarse;

@@ -1,0 +1,546 @@
+//! Yarn-level parameter estimation from uniform target curves (seed 002 §7).
+//!
+//! The pipeline of the paper's main contribution: a thin shell fitted to fabric tests produces
+//! uniform target curves (`shell-fem curves`); this module fits the mechanical parameters of
+//! the periodic yarn model to them.
+//!
+//! - [`parameters`]: the optimized parameters `p = {k_s1, Ȳ_s, k_b, R₁, k_c1}` and their
+//!   bounds (§7.3.2);
+//! - [`objective`]: the rest-shape estimation (§7.2) and the objective of Eq. 11 (§7.3.1);
+//! - [`targets`]: reading the target curves;
+//! - [`journal`]: the evaluation journal that makes a fit resumable;
+//! - [`fit`] (here): global search by particle swarm ([`argmin`]'s), then local refinement by
+//!   COBYLA ([`cobyla`], as the paper, §7.3.3).
+//!
+//! **Differences from the paper.** The swarm is argmin's standard PSO (SPSO 2011: constant
+//! inertia `1/(2 ln 2)`, cognitive and social factors `½ + ln 2`) instead of the paper's
+//! decaying inertia (0.9 → 0.1) with repulsion, and it is sized for two cores
+//! ([`SwarmSettings`]), not the paper's 64 particles × 10 steps on 256 cores.
+
+pub mod journal;
+pub mod objective;
+pub mod parameters;
+pub mod targets;
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use argmin::core::{CostFunction, Executor, State};
+use argmin::solver::particleswarm::ParticleSwarm;
+use rand_xoshiro::Xoshiro256PlusPlus;
+use rand_xoshiro::rand_core::SeedableRng;
+
+use crate::curves::CurveError;
+use crate::patterns::PatternError;
+use crate::periodic::{PeriodicError, YarnModel};
+pub use journal::Journal;
+pub use objective::{Evaluation, Objective, ObjectiveSettings, Sample};
+pub use parameters::{Bound, Parameter, ParameterSpace, estimated_radius, parameter_partial};
+pub use targets::{TargetPoint, Targets};
+
+/// Errors of the yarn-parameter fit.
+#[derive(Debug, thiserror::Error)]
+pub enum FitError {
+    /// An input file is malformed (line 0: the file as a whole).
+    #[error("{}{}: {problem}", path.display(), if *line > 0 { format!(", line {line}") } else { String::new() })]
+    Input {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line, 0 when not about one line.
+        line: usize,
+        /// What is wrong and what was expected.
+        problem: String,
+    },
+    /// A setting or parameter is not admissible.
+    #[error("invalid fit input: {0}")]
+    Invalid(String),
+    /// The rest-shape estimation failed.
+    #[error("rest-shape estimation: {0}")]
+    RestShape(#[from] PatternError),
+    /// A compression root-find failed.
+    #[error("compression: {0}")]
+    Curve(#[from] CurveError),
+    /// A stress sample could not be solved.
+    #[error("{direction} stretch s = {s}: {source}")]
+    Solve {
+        /// Direction name.
+        direction: &'static str,
+        /// Stretch.
+        s: f64,
+        /// Solver error.
+        source: PeriodicError,
+    },
+    /// A periodic-tile problem could not be built.
+    #[error(transparent)]
+    Periodic(#[from] PeriodicError),
+    /// The optimizer failed.
+    #[error("optimizer: {0}")]
+    Optimizer(String),
+    /// No candidate could be evaluated.
+    #[error("every one of {0} evaluations failed; the last error: {1}")]
+    NothingEvaluated(usize, String),
+}
+
+/// Settings of the global search.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SwarmSettings {
+    /// Particles. Default 16.
+    pub particles: usize,
+    /// Swarm iterations after the initial population. Default 6.
+    pub iterations: u64,
+    /// Seed of the swarm's random numbers (a fit is reproducible for a given seed).
+    pub seed: u64,
+}
+
+impl Default for SwarmSettings {
+    fn default() -> Self {
+        Self {
+            particles: 16,
+            iterations: 6,
+            seed: 2022,
+        }
+    }
+}
+
+/// Settings of a fit.
+#[derive(Clone, Debug)]
+pub struct FitSettings {
+    /// The global search; `None` starts the local search at [`FitSettings::start`] (the
+    /// "no swarm" ablation of Fig. 11).
+    pub swarm: Option<SwarmSettings>,
+    /// The local start without a swarm (normalized). Default: the middle of the box.
+    pub start: Option<Vec<f64>>,
+    /// Objective settings of the swarm (the paper: 7 samples per direction).
+    pub swarm_objective: ObjectiveSettings,
+    /// Objective settings of the local search and the final evaluation (the paper: 20).
+    pub local_objective: ObjectiveSettings,
+    /// The local method. Default [`LocalMethod::LevenbergMarquardt`].
+    pub local: LocalMethod,
+    /// Most local evaluations (COBYLA) or iterations (Levenberg–Marquardt). Default 60.
+    pub local_evaluations: usize,
+    /// COBYLA's initial step in the normalized box. Default 0.1.
+    pub local_step: f64,
+    /// The local search stops when a step changes every normalized coordinate by less than
+    /// this. Default 1e-4.
+    pub local_x_tol: f64,
+}
+
+/// The local refinement after the swarm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LocalMethod {
+    /// Derivative-free COBYLA on `g`, as the paper (§7.3.3).
+    Cobyla,
+    /// Bounded Levenberg–Marquardt ([`solver::bounded_lm`]) on the residuals of `g` with the
+    /// Jacobian from implicit differentiation of every equilibrium
+    /// ([`Objective::evaluate_with_jacobian`]); beyond the paper.
+    LevenbergMarquardt,
+}
+
+impl Default for FitSettings {
+    fn default() -> Self {
+        Self {
+            swarm: Some(SwarmSettings::default()),
+            start: None,
+            swarm_objective: ObjectiveSettings::default(),
+            local_objective: ObjectiveSettings {
+                samples: 20,
+                ..ObjectiveSettings::default()
+            },
+            local: LocalMethod::LevenbergMarquardt,
+            local_evaluations: 60,
+            local_step: 0.1,
+            local_x_tol: 1e-4,
+        }
+    }
+}
+
+/// Progress of a fit, passed to the callback after every evaluation.
+#[derive(Clone, Debug)]
+pub struct Progress {
+    /// `swarm`, `local` or `final`.
+    pub phase: &'static str,
+    /// Evaluations of this phase so far (journaled ones included).
+    pub evaluations: usize,
+    /// Best objective value of this phase so far.
+    pub best: f64,
+    /// Whether this evaluation came from the journal.
+    pub resumed: bool,
+}
+
+/// The result of [`fit`].
+#[derive(Clone, Debug)]
+pub struct FitResult {
+    /// The fitted model.
+    pub model: YarnModel,
+    /// Its normalized point.
+    pub x: Vec<f64>,
+    /// Its free parameter values (SI, in the space's order).
+    pub values: Vec<f64>,
+    /// The swarm's best point and value, if a swarm ran.
+    pub swarm_best: Option<(Vec<f64>, f64)>,
+    /// The evaluation of the fitted model with the local objective settings.
+    pub evaluation: Evaluation,
+    /// Evaluations per phase: swarm, local (journaled ones included).
+    pub evaluations: [usize; 2],
+    /// Failed evaluations (no equilibrium for the candidate), counted as `+∞`.
+    pub failed: usize,
+    /// How the local search stopped.
+    pub local_status: String,
+}
+
+/// A phase's cost: the journaled objective.
+struct Cost<'a> {
+    objective: Objective<'a>,
+    space: &'a ParameterSpace,
+    journal: &'a Journal,
+    phase: &'static str,
+    count: AtomicUsize,
+    failed: AtomicUsize,
+    best: std::sync::Mutex<f64>,
+    last_error: std::sync::Mutex<String>,
+    progress: &'a (dyn Fn(&Progress) + Sync),
+}
+
+impl<'a> Cost<'a> {
+    fn new(
+        objective: Objective<'a>,
+        space: &'a ParameterSpace,
+        journal: &'a Journal,
+        phase: &'static str,
+        progress: &'a (dyn Fn(&Progress) + Sync),
+    ) -> Self {
+        Self {
+            objective,
+            space,
+            journal,
+            phase,
+            count: AtomicUsize::new(0),
+            failed: AtomicUsize::new(0),
+            best: std::sync::Mutex::new(f64::INFINITY),
+            last_error: std::sync::Mutex::new(String::new()),
+            progress,
+        }
+    }
+
+    /// The objective at `x` (`+∞` when no equilibrium was found), journaled.
+    fn value(&self, x: &[f64]) -> Result<f64, FitError> {
+        let (result, resumed) = match self.journal.get(self.phase, x) {
+            Some(r) => (r, true),
+            None => {
+                let model = self.space.model(x);
+                let r = self
+                    .objective
+                    .evaluate(&model)
+                    .map(|e| e.value)
+                    .map_err(|e| e.to_string());
+                self.journal.record(self.phase, x, &r)?;
+                (r, false)
+            }
+        };
+        let value = match result {
+            Ok(v) => v,
+            Err(e) => {
+                self.failed.fetch_add(1, Ordering::Relaxed);
+                *self.last_error.lock().expect("error lock") = e;
+                f64::INFINITY
+            }
+        };
+        let evaluations = self.count.fetch_add(1, Ordering::Relaxed) + 1;
+        let best = {
+            let mut b = self.best.lock().expect("best lock");
+            *b = b.min(value);
+            *b
+        };
+        (self.progress)(&Progress {
+            phase: self.phase,
+            evaluations,
+            best,
+            resumed,
+        });
+        Ok(value)
+    }
+}
+
+/// [`Cost`] as argmin sees it (borrowed, so its counters stay readable).
+struct SwarmCost<'c, 'a>(&'c Cost<'a>);
+
+impl CostFunction for SwarmCost<'_, '_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+
+    fn cost(&self, x: &Self::Param) -> Result<f64, argmin::core::Error> {
+        Ok(self.0.value(x)?)
+    }
+}
+
+/// A stable fingerprint of a fit's inputs, for its journal.
+pub fn fingerprint(
+    geometry: &yarn_pattern::tile::Tile,
+    targets: &Targets,
+    space: &ParameterSpace,
+    settings: &FitSettings,
+) -> String {
+    format!(
+        "{:016x}",
+        crate::database::fnv1a(
+            format!("{geometry:?}|{targets:?}|{space:?}|{settings:?}|fit-v1").as_bytes()
+        )
+    )
+}
+
+/// Fits `space`'s free parameters to `targets` on the input yarn geometry `geometry`: a
+/// particle swarm over the normalized box (unless `settings.swarm` is `None`), then COBYLA
+/// from the swarm's best point, then one evaluation of the result with the local settings.
+/// Every evaluation goes through `journal` (see [`journal`]), so an interrupted fit rerun
+/// with the same journal resumes and ends with the same result.
+pub fn fit(
+    geometry: &yarn_pattern::tile::Tile,
+    targets: &Targets,
+    space: &ParameterSpace,
+    settings: &FitSettings,
+    journal: &Journal,
+    progress: &(dyn Fn(&Progress) + Sync),
+) -> Result<FitResult, FitError> {
+    let n = space.dim();
+    if settings.local_evaluations < n + 2 {
+        return Err(FitError::Invalid(format!(
+            "COBYLA needs at least n + 2 = {} evaluations, found {}",
+            n + 2,
+            settings.local_evaluations
+        )));
+    }
+    let objective = |settings: &ObjectiveSettings| Objective {
+        geometry,
+        targets,
+        settings: settings.clone(),
+    };
+    objective(&settings.swarm_objective).check()?;
+    objective(&settings.local_objective).check()?;
+
+    // Global search.
+    let mut failed = 0;
+    let mut last_error = String::new();
+    let (start, swarm_best, swarm_evaluations) = match &settings.swarm {
+        Some(swarm) => {
+            if swarm.particles < 2 {
+                return Err(FitError::Invalid(format!(
+                    "the swarm needs at least 2 particles, found {}",
+                    swarm.particles
+                )));
+            }
+            let cost = Cost::new(
+                objective(&settings.swarm_objective),
+                space,
+                journal,
+                "swarm",
+                progress,
+            );
+            let solver = ParticleSwarm::new((vec![0.0; n], vec![1.0; n]), swarm.particles)
+                .with_rng_generator(Xoshiro256PlusPlus::seed_from_u64(swarm.seed));
+            let result = Executor::new(SwarmCost(&cost), solver)
+                .configure(|state| state.max_iters(swarm.iterations))
+                .run()
+                .map_err(|e| FitError::Optimizer(e.to_string()))?;
+            let state = result.state();
+            let best = state
+                .get_best_param()
+                .map(|p| p.position.clone())
+                .ok_or_else(|| FitError::Optimizer("the swarm has no best particle".into()))?;
+            let value = state.get_best_cost();
+            failed += cost.failed.load(Ordering::Relaxed);
+            last_error = cost.last_error.lock().expect("error lock").clone();
+            let count = cost.count.load(Ordering::Relaxed);
+            if !value.is_finite() {
+                return Err(FitError::NothingEvaluated(count, last_error));
+            }
+            (best.clone(), Some((best, value)), count)
+        }
+        None => {
+            let start = settings.start.clone().unwrap_or_else(|| vec![0.5; n]);
+            if start.len() != n || !start.iter().all(|t| (0.0..=1.0).contains(t)) {
+                return Err(FitError::Invalid(format!(
+                    "the local start must have {n} coordinates in [0, 1], found {start:?}"
+                )));
+            }
+            (start, None, 0)
+        }
+    };
+
+    // Local refinement in the normalized box.
+    let (x, status, local_evaluations) = match settings.local {
+        LocalMethod::Cobyla => {
+            let cost = Cost::new(
+                objective(&settings.local_objective),
+                space,
+                journal,
+                "local",
+                progress,
+            );
+            let (x, status) = cobyla_search(&cost, &start, settings)?;
+            failed += cost.failed.load(Ordering::Relaxed);
+            let error = cost.last_error.lock().expect("error lock").clone();
+            if !error.is_empty() {
+                last_error = error;
+            }
+            (x, status, cost.count.load(Ordering::Relaxed))
+        }
+        LocalMethod::LevenbergMarquardt => {
+            let (x, status, count) = lm_search(
+                &objective(&settings.local_objective),
+                space,
+                &start,
+                settings,
+                progress,
+            )?;
+            (x, status, count)
+        }
+    };
+    let x: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
+    let model = space.model(&x);
+    let evaluation = objective(&settings.local_objective)
+        .evaluate(&model)
+        .map_err(|e| {
+            FitError::NothingEvaluated(local_evaluations, format!("{e} (last other: {last_error})"))
+        })?;
+    Ok(FitResult {
+        model,
+        values: space.values(&x),
+        x,
+        swarm_best,
+        evaluation,
+        evaluations: [swarm_evaluations, local_evaluations],
+        failed,
+        local_status: status,
+    })
+}
+
+/// COBYLA from `start`; returns the best point and how it stopped.
+fn cobyla_search(
+    cost: &Cost<'_>,
+    start: &[f64],
+    settings: &FitSettings,
+) -> Result<(Vec<f64>, String), FitError> {
+    let n = start.len();
+    let fatal: std::sync::Mutex<Option<FitError>> = std::sync::Mutex::new(None);
+    let func = |x: &[f64], _: &mut ()| -> f64 {
+        match cost.value(x) {
+            Ok(v) if v.is_finite() => v,
+            Ok(_) => 1e30,
+            Err(e) => {
+                fatal.lock().expect("fatal lock").get_or_insert(e);
+                1e30
+            }
+        }
+    };
+    let no_constraints: Vec<&dyn cobyla::Func<()>> = vec![];
+    let stop = cobyla::StopTols {
+        xtol_abs: vec![settings.local_x_tol; n],
+        ..cobyla::StopTols::default()
+    };
+    let outcome = cobyla::minimize(
+        func,
+        start,
+        &vec![(0.0, 1.0); n],
+        &no_constraints,
+        (),
+        settings.local_evaluations,
+        cobyla::RhoBeg::All(settings.local_step),
+        Some(stop),
+    );
+    if let Some(e) = fatal.into_inner().expect("fatal lock") {
+        return Err(e);
+    }
+    Ok(match outcome {
+        Ok((status, x, _)) => (x, format!("COBYLA: {status:?}")),
+        Err((status, x, _)) => (x, format!("COBYLA failed ({status:?}); best point kept")),
+    })
+}
+
+/// Levenberg–Marquardt from `start` on the full objective (every point gets its own
+/// estimated rest shape). The Jacobian of a point is the exact one of its frozen rest tile
+/// ([`Objective::evaluate_with_jacobian`]) plus a correction `B` for the rest shape's own
+/// dependence on the parameters, which is not differentiable in closed form: Broyden's update
+/// from every pair of consecutive evaluations, `B ← B + ((Δr − J̄Δx) − BΔx) Δxᵀ / ‖Δx‖²`, with
+/// `J̄` the mean of the two frozen Jacobians (starts at `B = 0`). Returns the last accepted
+/// point, how it stopped and the evaluations used.
+fn lm_search(
+    objective: &Objective<'_>,
+    space: &ParameterSpace,
+    start: &[f64],
+    settings: &FitSettings,
+    progress: &(dyn Fn(&Progress) + Sync),
+) -> Result<(Vec<f64>, String, usize), FitError> {
+    use nalgebra::{DMatrix, DVector};
+    const N: usize = Parameter::ALL.len();
+    let n = start.len();
+    let mut p0 = [0.0; N];
+    p0[..n].copy_from_slice(start);
+    let bounds = solver::LmBounds {
+        lower: [0.0; N],
+        upper: [1.0; N],
+        fixed: std::array::from_fn(|k| k >= n),
+        scale: [1.0; N],
+    };
+    let lm_settings = solver::LmSettings {
+        max_iterations: settings.local_evaluations,
+        cost_rtol: 1e-12,
+        step_tol: settings.local_x_tol,
+        residual_tol: 0.0,
+    };
+    let mut count = 0;
+    let mut best = f64::INFINITY;
+    let mut correction: Option<DMatrix<f64>> = None;
+    let mut previous: Option<(DVector<f64>, DVector<f64>, DMatrix<f64>)> = None;
+    let rest_shape = objective.settings.rest_shape;
+    let mut eval = |p: &[f64; N]| -> Result<solver::LmEval<()>, FitError> {
+        let (evaluation, frozen) = objective.evaluate_with_jacobian(space, &p[..n], None)?;
+        let r = Objective::residuals(&evaluation);
+        let x = DVector::from_column_slice(&p[..n]);
+        let b = correction.get_or_insert_with(|| DMatrix::zeros(r.len(), n));
+        if let Some((x0, r0, j0)) = &previous
+            && rest_shape
+        {
+            let dx = &x - x0;
+            let norm2 = dx.norm_squared();
+            if norm2 > 0.0 {
+                let mean = (j0 + &frozen) * 0.5;
+                let miss = (&r - r0) - &mean * &dx - &*b * &dx;
+                *b += miss * dx.transpose() / norm2;
+            }
+        }
+        let j = &frozen + &*b;
+        previous = Some((x, r.clone(), frozen));
+        let mut jacobian = DMatrix::zeros(r.len(), N);
+        jacobian.columns_mut(0, n).copy_from(&j);
+        count += 1;
+        best = best.min(evaluation.value);
+        progress(&Progress {
+            phase: "local",
+            evaluations: count,
+            best,
+            resumed: false,
+        });
+        Ok((r, jacobian, ()))
+    };
+    let outcome = solver::bounded_lm(
+        p0,
+        &bounds,
+        &lm_settings,
+        &|_| {},
+        &mut eval,
+        &mut |_| {},
+        None,
+    )
+    .map_err(|e| match e {
+        solver::LmError::InitialEvaluation(e) => e,
+        other => FitError::Optimizer(other.to_string()),
+    })?;
+    Ok((
+        outcome.p[..n].to_vec(),
+        format!(
+            "Levenberg–Marquardt: {} after {} iterations",
+            outcome.termination, outcome.iterations
+        ),
+        count,
+    ))
+}

@@ -1,0 +1,438 @@
+//! The optimized yarn parameters and their bounds (seed 002 §7.3.2).
+//!
+//! The paper optimizes `p = {k_s1, Ȳ_s, k_b, R₁, k_c1}`: the soft stretch stiffness, the onset of
+//! the stiff regime, the bending stiffness, the outer contact radius and its stiffness. The
+//! stiff stretch stiffness `k_s2` is an input (the stiffest yarn's), the inner contact is a
+//! non-penetration core with `R₂ = R_est / 4` and a fixed stiffness. Bounds, from the
+//! geometric base radius `R_est` ([`estimated_radius`]):
+//!
+//! ```text
+//! k_s1 ∈ [1e-3 k_s2, k_s2]          (log)
+//! Ȳ_s  ∈ [0, 0.15]
+//! k_b  ∈ [1e-3, 10] k_s2 R_est² / 4  (log)
+//! R₁   ∈ [0.5, 1.5] R_est
+//! k_c1 ∈ [1e-5, 1e-1] k_c2           (log)
+//! ```
+//!
+//! The paper states `k_c1 ∈ [1e-2, 1e2]` with `k_c2 = 1e3` in its units; here the range is
+//! kept as the same ratio to `k_c2` (J/m², whose default is `1e6` for a 1 mm yarn), since the
+//! absolute value depends on the length unit. The twist stiffness, not a parameter of the
+//! paper's isotropic rods, follows the bending stiffness with the base model's ratio `k_t/k_b`.
+//!
+//! The optimizers see every parameter normalized to `[0, 1]` (log-scaled ones in log space).
+
+use crate::coarse::Coarse;
+use crate::periodic::{Equilibrium, Partial, PeriodicTile, YarnModel};
+use rod::contact::closest_points;
+use rod::stretch::StretchLaw;
+use yarn_pattern::tile::Tile;
+
+use super::FitError;
+
+/// One optimizable yarn parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Parameter {
+    /// Soft stretch stiffness `k_s1` (N); `k` of a linear stretch law.
+    StretchSoft,
+    /// Onset strain `Ȳ_s` of the stiff stretch regime (two-phase law only).
+    Onset,
+    /// Bending stiffness `k_b` (N·m²); the twist stiffness keeps its ratio to it.
+    Bending,
+    /// Outer (soft) contact radius `R₁` (m).
+    ContactRadius,
+    /// Outer (soft) contact stiffness `k_c1` (J/m²).
+    ContactStiffness,
+}
+
+impl Parameter {
+    /// All parameters, in the paper's order.
+    pub const ALL: [Parameter; 5] = [
+        Parameter::StretchSoft,
+        Parameter::Onset,
+        Parameter::Bending,
+        Parameter::ContactRadius,
+        Parameter::ContactStiffness,
+    ];
+
+    /// The name used in configs and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Parameter::StretchSoft => "k1",
+            Parameter::Onset => "onset",
+            Parameter::Bending => "bending",
+            Parameter::ContactRadius => "contact_radius",
+            Parameter::ContactStiffness => "contact_stiffness",
+        }
+    }
+
+    /// The parameter called `name`, if any.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    /// Whether it is searched in log space (the paper: `k_s1`, `k_b`, `k_c1`).
+    pub fn log_scale(self) -> bool {
+        matches!(
+            self,
+            Parameter::StretchSoft | Parameter::Bending | Parameter::ContactStiffness
+        )
+    }
+
+    /// Its value in `model`.
+    pub fn get(self, model: &YarnModel) -> f64 {
+        match self {
+            Parameter::StretchSoft => match model.stretch {
+                StretchLaw::Linear { k } => k,
+                StretchLaw::TwoPhase { k1, .. } => k1,
+            },
+            Parameter::Onset => match model.stretch {
+                StretchLaw::Linear { .. } => 0.0,
+                StretchLaw::TwoPhase { onset, .. } => onset,
+            },
+            Parameter::Bending => model.bending,
+            Parameter::ContactRadius => model.contact[0].radius,
+            Parameter::ContactStiffness => model.contact[0].stiffness,
+        }
+    }
+
+    /// `model` with this parameter set to `value`.
+    fn set(self, model: &mut YarnModel, value: f64) {
+        match self {
+            Parameter::StretchSoft => match &mut model.stretch {
+                StretchLaw::Linear { k } => *k = value,
+                StretchLaw::TwoPhase { k1, .. } => *k1 = value,
+            },
+            Parameter::Onset => {
+                if let StretchLaw::TwoPhase { onset, .. } = &mut model.stretch {
+                    *onset = value;
+                }
+            }
+            Parameter::Bending => {
+                let ratio = if model.bending > 0.0 {
+                    model.twist / model.bending
+                } else {
+                    0.0
+                };
+                model.bending = value;
+                model.twist = ratio * value;
+            }
+            Parameter::ContactRadius => model.contact[0].radius = value,
+            Parameter::ContactStiffness => model.contact[0].stiffness = value,
+        }
+    }
+}
+
+/// A free parameter and its search interval.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bound {
+    /// The parameter.
+    pub parameter: Parameter,
+    /// Lower end (SI).
+    pub min: f64,
+    /// Upper end (SI).
+    pub max: f64,
+}
+
+/// The search space: a base model and the free parameters with their bounds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParameterSpace {
+    /// The model whose other values are kept.
+    pub base: YarnModel,
+    /// The free parameters, each at most once.
+    pub free: Vec<Bound>,
+}
+
+impl ParameterSpace {
+    /// The paper's five parameters with the bounds of the module documentation, around
+    /// `base` (whose `k_s2`, `k_c2` are the fixed inputs) and the base radius `r_est` (m). The
+    /// inner contact radius of the result is `R₂ = r_est / 4`. With a linear stretch law the
+    /// onset is not a parameter.
+    pub fn paper(base: &YarnModel, r_est: f64) -> Result<Self, FitError> {
+        if !(r_est.is_finite() && r_est > 0.0) {
+            return Err(FitError::Invalid(format!(
+                "the base radius R_est must be positive, found {r_est}"
+            )));
+        }
+        let mut base = *base;
+        base.contact[1].radius = 0.25 * r_est;
+        let k2 = match base.stretch {
+            StretchLaw::Linear { k } => k,
+            StretchLaw::TwoPhase { k2, .. } => k2,
+        };
+        let kb_base = k2 * r_est * r_est / 4.0;
+        let kc2 = base.contact[1].stiffness;
+        let mut free = vec![Bound {
+            parameter: Parameter::StretchSoft,
+            min: 1e-3 * k2,
+            max: k2,
+        }];
+        if matches!(base.stretch, StretchLaw::TwoPhase { .. }) {
+            free.push(Bound {
+                parameter: Parameter::Onset,
+                min: 0.0,
+                max: 0.15,
+            });
+        }
+        free.extend([
+            Bound {
+                parameter: Parameter::Bending,
+                min: 1e-3 * kb_base,
+                max: 10.0 * kb_base,
+            },
+            Bound {
+                parameter: Parameter::ContactRadius,
+                min: 0.5 * r_est,
+                max: 1.5 * r_est,
+            },
+            Bound {
+                parameter: Parameter::ContactStiffness,
+                min: 1e-5 * kc2,
+                max: 1e-1 * kc2,
+            },
+        ]);
+        Self::new(base, free)
+    }
+
+    /// Checks and builds a space: every bound finite with `min < max` (`min > 0` on log
+    /// scale), no parameter twice, no onset with a linear stretch law.
+    pub fn new(base: YarnModel, free: Vec<Bound>) -> Result<Self, FitError> {
+        for (i, b) in free.iter().enumerate() {
+            let name = b.parameter.name();
+            if !(b.min.is_finite() && b.max.is_finite() && b.min < b.max) {
+                return Err(FitError::Invalid(format!(
+                    "parameter {name}: need finite bounds with min < max, found [{}, {}]",
+                    b.min, b.max
+                )));
+            }
+            if b.parameter.log_scale() && b.min <= 0.0 {
+                return Err(FitError::Invalid(format!(
+                    "parameter {name} is searched in log space: its lower bound must be \
+                     positive, found {}",
+                    b.min
+                )));
+            }
+            if free[..i].iter().any(|o| o.parameter == b.parameter) {
+                return Err(FitError::Invalid(format!(
+                    "parameter {name} is listed twice"
+                )));
+            }
+            if b.parameter == Parameter::Onset && matches!(base.stretch, StretchLaw::Linear { .. })
+            {
+                return Err(FitError::Invalid(
+                    "parameter onset needs the two-phase stretch law (the model's is linear)"
+                        .into(),
+                ));
+            }
+        }
+        if free.is_empty() {
+            return Err(FitError::Invalid("no parameter to fit".into()));
+        }
+        Ok(Self { base, free })
+    }
+
+    /// Number of free parameters.
+    pub fn dim(&self) -> usize {
+        self.free.len()
+    }
+
+    /// The model at the normalized point `x ∈ [0, 1]ⁿ` (clamped into the box).
+    pub fn model(&self, x: &[f64]) -> YarnModel {
+        let mut m = self.base;
+        for (b, &t) in self.free.iter().zip(x) {
+            b.parameter.set(&mut m, denormalize(b, t.clamp(0.0, 1.0)));
+        }
+        m
+    }
+
+    /// The parameter values (SI) at the normalized point `x`.
+    pub fn values(&self, x: &[f64]) -> Vec<f64> {
+        self.free
+            .iter()
+            .zip(x)
+            .map(|(b, &t)| denormalize(b, t.clamp(0.0, 1.0)))
+            .collect()
+    }
+
+    /// The normalized point of `model`'s free parameters (not clamped: outside `[0, 1]` when
+    /// the model is outside the box).
+    pub fn normalized(&self, model: &YarnModel) -> Vec<f64> {
+        self.free
+            .iter()
+            .map(|b| {
+                let v = b.parameter.get(model);
+                if b.parameter.log_scale() {
+                    (v.ln() - b.min.ln()) / (b.max.ln() - b.min.ln())
+                } else {
+                    (v - b.min) / (b.max - b.min)
+                }
+            })
+            .collect()
+    }
+}
+
+fn denormalize(b: &Bound, t: f64) -> f64 {
+    if b.parameter.log_scale() {
+        (b.min.ln() + t * (b.max.ln() - b.min.ln())).exp()
+    } else {
+        b.min + t * (b.max - b.min)
+    }
+}
+
+/// The partial derivatives at fixed yarn state of the equilibrium `eq` of `tile` under
+/// `model` with respect to `parameter` (per SI unit of the parameter): of the energy gradient
+/// and of the gathered stress ([`crate::periodic::stress_sensitivities`] turns them into total
+/// derivatives). Exact for `k_s1`, `k_b` (with the twist following it) and `k_c1`, in which the
+/// energy is linear: the gradient and stress of the model with only that stiffness set to 1.
+/// Central differences at fixed state (relative step 1e-6) for the onset `Ȳ_s` and the radius
+/// `R₁`, in which it is not; the contact pairs are the equilibrium's throughout.
+pub fn parameter_partial(
+    tile: &Tile,
+    model: &YarnModel,
+    eq: &Equilibrium,
+    parameter: Parameter,
+) -> Result<Partial, FitError> {
+    let at = |m: &YarnModel| -> Result<(Vec<f64>, nalgebra::Matrix2<f64>), FitError> {
+        let problem = PeriodicTile::new(tile, *m, eq.coarse, eq.pairs.clone())?;
+        Ok(problem.gradient_and_stress(&eq.dofs)?)
+    };
+    let mut unit = *model;
+    unit.stretch = match model.stretch {
+        StretchLaw::Linear { .. } => StretchLaw::Linear { k: 0.0 },
+        StretchLaw::TwoPhase { onset, .. } => StretchLaw::TwoPhase {
+            k1: 0.0,
+            k2: 0.0,
+            onset,
+        },
+    };
+    unit.bending = 0.0;
+    unit.twist = 0.0;
+    unit.contact[0].stiffness = 0.0;
+    unit.contact[1].stiffness = 0.0;
+    let linear = |unit: YarnModel| -> Result<Partial, FitError> {
+        let (gradient, stress) = at(&unit)?;
+        Ok(Partial { gradient, stress })
+    };
+    match parameter {
+        Parameter::StretchSoft => {
+            Parameter::StretchSoft.set(&mut unit, 1.0);
+            linear(unit)
+        }
+        Parameter::Bending => {
+            unit.bending = 1.0;
+            unit.twist = if model.bending > 0.0 {
+                model.twist / model.bending
+            } else {
+                0.0
+            };
+            linear(unit)
+        }
+        Parameter::ContactStiffness => {
+            unit.contact[0].stiffness = 1.0;
+            linear(unit)
+        }
+        Parameter::Onset | Parameter::ContactRadius => {
+            let value = parameter.get(model);
+            let h = 1e-6
+                * value.abs().max(if parameter == Parameter::Onset {
+                    0.01
+                } else {
+                    model.contact[0].radius
+                });
+            let shifted = |delta: f64| {
+                let mut m = *model;
+                parameter.set(&mut m, value + delta);
+                at(&m)
+            };
+            let (gp, sp) = shifted(h)?;
+            let (gm, sm) = shifted(-h)?;
+            Ok(Partial {
+                gradient: gp
+                    .iter()
+                    .zip(&gm)
+                    .map(|(a, b)| (a - b) / (2.0 * h))
+                    .collect(),
+                stress: (sp - sm) / (2.0 * h),
+            })
+        }
+    }
+}
+
+/// The base radius `R_est` of seed 002 §7.3.2: the smallest contact radius at which every
+/// yarn segment of the tile's geometry touches another (centre-line distance `< 2R` to an
+/// edge of another yarn or further along its own than `model.min_arc_separation`), i.e. half
+/// the largest nearest-neighbour distance over the edges.
+pub fn estimated_radius(tile: &Tile, model: &YarnModel) -> Result<f64, FitError> {
+    let n = tile.n_vertices();
+    let zero = vec![0.0; 4 * n];
+    // Candidate pairs within a generous cutoff: half the larger period side.
+    let reach = 0.5 * tile.period[0].max(tile.period[1]);
+    let mut wide = *model;
+    wide.contact[0].radius = 0.5 * reach;
+    wide.contact[1].radius = 0.0;
+    let pairs = PeriodicTile::find_pairs(tile, &wide, &Coarse::identity(), &zero, 1.0)?;
+    let pos = |v: usize, shift: [i32; 2]| tile.positions[v] + tile.period_offset(shift);
+    let mut nearest = vec![f64::INFINITY; tile.edges.len()];
+    for p in &pairs {
+        let (ea, eb) = (tile.edges[p.a], tile.edges[p.b]);
+        let [i, j] = p.image;
+        let d = closest_points(
+            &pos(ea.v0, [0, 0]),
+            &pos(ea.v1, ea.shift),
+            &pos(eb.v0, p.image),
+            &pos(eb.v1, [eb.shift[0] + i, eb.shift[1] + j]),
+        )
+        .2;
+        nearest[p.a] = nearest[p.a].min(d);
+        nearest[p.b] = nearest[p.b].min(d);
+    }
+    let worst = nearest.iter().copied().fold(0.0, f64::max);
+    if !worst.is_finite() {
+        return Err(FitError::Invalid(format!(
+            "an edge of the tile has no other yarn within {reach:e} m: no base radius"
+        )));
+    }
+    Ok(0.5 * worst)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normalization_round_trips_and_respects_log_scale() {
+        let base = YarnModel::default_for_radius(1e-3);
+        let space = ParameterSpace::paper(&base, 1e-3).unwrap();
+        assert_eq!(space.dim(), 5);
+        let x = [0.1, 0.5, 0.25, 0.75, 0.9];
+        let m = space.model(&x);
+        let back = space.normalized(&m);
+        for (a, b) in x.iter().zip(&back) {
+            assert!((a - b).abs() < 1e-12, "{a} vs {b}");
+        }
+        // Log scale: the midpoint is the geometric mean.
+        let k = Parameter::StretchSoft.get(&space.model(&[0.5, 0.0, 0.0, 0.0, 0.0]));
+        assert!((k - (0.2f64 * 200.0).sqrt()).abs() < 1e-9 * k);
+        // The twist keeps its ratio to the bending stiffness.
+        assert!((m.twist / m.bending - base.twist / base.bending).abs() < 1e-12);
+        assert_eq!(m.contact[1].radius, 0.25e-3);
+    }
+
+    #[test]
+    fn bad_bounds_are_rejected_with_the_parameter_named() {
+        let base = YarnModel::default_for_radius(1e-3);
+        let bad = |free| ParameterSpace::new(base, free).unwrap_err().to_string();
+        let b = |parameter, min, max| Bound {
+            parameter,
+            min,
+            max,
+        };
+        assert!(bad(vec![b(Parameter::Bending, 0.0, 1.0)]).contains("bending"));
+        assert!(bad(vec![b(Parameter::Onset, 0.2, 0.1)]).contains("onset"));
+        let twice = vec![
+            b(Parameter::ContactRadius, 1e-4, 1e-3),
+            b(Parameter::ContactRadius, 1e-4, 1e-3),
+        ];
+        assert!(bad(twice).contains("twice"));
+        assert!(bad(vec![]).contains("no parameter"));
+    }
+}

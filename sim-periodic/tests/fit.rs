@@ -1,0 +1,183 @@
+//! The yarn-parameter fit (seed 002 §7) recovers known parameters from targets that
+//! `sim-periodic` generated with them.
+
+use sim_periodic::curves::uniaxial_curve;
+use sim_periodic::fit::{
+    FitSettings, Journal, LocalMethod, Objective, ObjectiveSettings, ParameterSpace, TargetPoint,
+    Targets, estimated_radius, fit,
+};
+use sim_periodic::patterns::Pattern;
+use sim_periodic::periodic::YarnModel;
+use yarn_pattern::direction::Direction;
+use yarn_pattern::tile::Tile;
+
+/// The procedural stockinette's input geometry (not relaxed: the fit estimates rest shapes).
+fn geometry() -> Tile {
+    let p = Pattern::Stockinette;
+    p.generate(&p.default_params(1e-3)).unwrap()
+}
+
+/// Target curves of `model` on `geometry`, exactly as the objective sees a yarn model: rest
+/// shape estimated, then uniaxial curves with zero orthogonal stress.
+fn targets_of(
+    geometry: &Tile,
+    model: &YarnModel,
+    ranges: &[(Direction, f64)],
+    n: usize,
+) -> Targets {
+    let objective = Objective {
+        geometry,
+        targets: &Targets::default(),
+        settings: ObjectiveSettings {
+            ..ObjectiveSettings::default()
+        },
+    };
+    let (tile, _, _) = objective.rest_tile(model).unwrap();
+    let mut targets = Targets::default();
+    for &(d, s_max) in ranges {
+        let s: Vec<f64> = (0..n).map(|i| s_max * i as f64 / (n - 1) as f64).collect();
+        let curve = uniaxial_curve(&tile, model, d, &s, &Default::default()).unwrap();
+        targets.curves.insert(
+            d,
+            curve
+                .iter()
+                .map(|p| TargetPoint {
+                    s: p.s,
+                    c: p.c,
+                    sigma: p.sigma_s,
+                })
+                .collect(),
+        );
+    }
+    targets
+}
+
+#[test]
+fn the_fit_recovers_known_parameters_from_their_own_curves() {
+    let geometry = geometry();
+    let base = YarnModel::default_for_radius(1e-3);
+    let r_est = estimated_radius(&geometry, &base).unwrap();
+    let paper = ParameterSpace::paper(&base, r_est).unwrap();
+    // All five of the paper's parameters free.
+    let free = paper.free.clone();
+    let truth_x = [0.62, 0.4, 0.55, 0.45, 0.58];
+    let space = ParameterSpace::new(paper.base, free).unwrap();
+    let truth = space.model(&truth_x);
+    let nodes = 5;
+    let targets = targets_of(
+        &geometry,
+        &truth,
+        &[(Direction::Weft, 0.4), (Direction::Warp, 0.2)],
+        nodes,
+    );
+    let objective = ObjectiveSettings {
+        samples: nodes,
+        compression_nodes: nodes,
+        ..ObjectiveSettings::default()
+    };
+    let settings = FitSettings {
+        swarm: None,
+        start: Some(vec![0.5, 0.5, 0.45, 0.5, 0.5]),
+        swarm_objective: objective.clone(),
+        local_objective: objective,
+        local: LocalMethod::LevenbergMarquardt,
+        local_evaluations: 30,
+        local_step: 0.1,
+        local_x_tol: 1e-6,
+    };
+    let t = std::time::Instant::now();
+    let result = fit(
+        &geometry,
+        &targets,
+        &space,
+        &settings,
+        &Journal::in_memory(),
+        &|_| {},
+    )
+    .unwrap();
+    let truth_values = space.values(&truth_x);
+    eprintln!(
+        "{} evaluations in {:.1} s ({}), g = {:e}",
+        result.evaluations[1],
+        t.elapsed().as_secs_f64(),
+        result.local_status,
+        result.evaluation.value
+    );
+    for ((b, fitted), known) in space.free.iter().zip(&result.values).zip(&truth_values) {
+        let rel = (fitted - known).abs() / known.abs();
+        eprintln!(
+            "{}: fitted {fitted:.6e}, known {known:.6e} ({:.3} %)",
+            b.parameter.name(),
+            100.0 * rel
+        );
+        assert!(
+            rel < 0.02,
+            "{} off by {:.2} %",
+            b.parameter.name(),
+            100.0 * rel
+        );
+    }
+    let worst = result
+        .evaluation
+        .samples
+        .iter()
+        .filter(|p| p.target.sigma.abs() > 0.0)
+        .map(|p| (p.sigma - p.target.sigma).abs() / p.target.sigma.abs())
+        .fold(0.0, f64::max);
+    eprintln!("largest relative stress error: {:.4} %", 100.0 * worst);
+    assert!(worst < 0.005);
+}
+
+#[test]
+fn the_residual_jacobian_matches_central_differences_on_a_frozen_rest_tile() {
+    // With the rest tile frozen the objective is smooth in the parameters and the Jacobian
+    // (implicit differentiation of every equilibrium, compressions through their
+    // zero-orthogonal-stress condition) is its exact derivative.
+    let geometry = geometry();
+    let base = YarnModel::default_for_radius(1e-3);
+    let r_est = estimated_radius(&geometry, &base).unwrap();
+    let space = ParameterSpace::paper(&base, r_est).unwrap();
+    let x = [0.55, 0.35, 0.6, 0.5, 0.5];
+    let targets = targets_of(
+        &geometry,
+        &space.model(&[0.6, 0.4, 0.55, 0.45, 0.58]),
+        &[(Direction::Weft, 0.3), (Direction::Bias, 0.2)],
+        4,
+    );
+    let objective = Objective {
+        geometry: &geometry,
+        targets: &targets,
+        settings: ObjectiveSettings {
+            samples: 4,
+            compression_nodes: 3,
+            ..ObjectiveSettings::default()
+        },
+    };
+    let (rest, _, _) = objective.rest_tile(&space.model(&x)).unwrap();
+    let (evaluation, jacobian) = objective
+        .evaluate_with_jacobian(&space, &x, Some(&rest))
+        .unwrap();
+    let r0 = Objective::residuals(&evaluation);
+    let h = 1e-5;
+    for k in 0..space.dim() {
+        let at = |delta: f64| {
+            let mut y = x;
+            y[k] += delta;
+            Objective::residuals(
+                &objective
+                    .evaluate_with_jacobian(&space, &y, Some(&rest))
+                    .unwrap()
+                    .0,
+            )
+        };
+        let fd = (at(h) - at(-h)) / (2.0 * h);
+        let column = jacobian.column(k);
+        let err = (&fd - column).amax() / column.amax().max(r0.amax());
+        eprintln!(
+            "{}: |J| = {:.3e}, |J − FD| / max = {err:.2e}",
+            space.free[k].parameter.name(),
+            column.amax()
+        );
+        assert!(err < 1e-5, "column {k} off by {err:e}");
+    }
+}
