@@ -1,4 +1,5 @@
-//! TOML configuration of the `sim-periodic` command line (`relax`, `curve`, `database`).
+//! TOML configuration of the `sim-periodic` command line (`relax`, `curve`, `database`; `fit`
+//! has its own file, [`FitConfig`]).
 //!
 //! One file describes the tile, the yarn model, the solver and what to compute; paths are
 //! relative to the config file. Unknown keys are errors (with line and column), so typos do not
@@ -36,6 +37,7 @@
 //! fill_unsolved = false         # true: fill unsolvable samples from their parent, report them
 //! ```
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use yarn_pattern::direction::Direction;
 
@@ -94,6 +96,61 @@ pub struct ModelConfig {
     pub simpson_intervals: Option<usize>,
 }
 
+impl ModelConfig {
+    /// The yarn model for yarn radius `r` (m) with the overrides applied.
+    pub fn model(&self, r: f64, path: &Path) -> Result<YarnModel, ConfigError> {
+        let bad = |message: String| {
+            Err(ConfigError::Invalid {
+                message,
+                path: path.to_path_buf(),
+            })
+        };
+        let mut model = YarnModel::default_for_radius(r);
+        let m = self;
+        if let StretchLaw::TwoPhase { k1, k2, onset } = &mut model.stretch {
+            *k1 = m.k1.unwrap_or(*k1);
+            *k2 = m.k2.unwrap_or(*k2);
+            *onset = m.onset.unwrap_or(*onset);
+            if !(*k1 > 0.0 && *k2 > 0.0 && *onset >= 0.0) {
+                return bad(format!(
+                    "[model] needs k1 > 0, k2 > 0, onset >= 0 (got {k1}, {k2}, {onset})"
+                ));
+            }
+        }
+        model.bending = m.bending.unwrap_or(model.bending);
+        model.twist = m.twist.unwrap_or(model.twist);
+        if !(model.bending > 0.0 && model.twist >= 0.0) {
+            return bad(format!(
+                "[model] needs bending > 0 and twist >= 0 (got {}, {})",
+                model.bending, model.twist
+            ));
+        }
+        if let Some(k) = m.contact_stiffness {
+            for (phase, k) in model.contact.iter_mut().zip(k) {
+                if !(k > 0.0 && k.is_finite()) {
+                    return bad(format!("[model] contact_stiffness must be > 0, got {k}"));
+                }
+                phase.stiffness = k;
+            }
+        }
+        if let Some(f) = m.contact_radius {
+            for (phase, f) in model.contact.iter_mut().zip(f) {
+                if !(f > 0.0 && f.is_finite()) {
+                    return bad(format!("[model] contact_radius must be > 0, got {f}"));
+                }
+                phase.radius = f * r;
+            }
+        }
+        if let Some(n) = m.simpson_intervals {
+            model.quadrature = Simpson::new(n).ok_or_else(|| ConfigError::Invalid {
+                message: format!("[model] simpson_intervals must be even and >= 2, got {n}"),
+                path: path.to_path_buf(),
+            })?;
+        }
+        Ok(model)
+    }
+}
+
 /// Newton overrides.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -104,6 +161,18 @@ pub struct SolverConfig {
     pub gradient_rel_tol: Option<f64>,
     /// Iteration cap.
     pub max_iterations: Option<usize>,
+}
+
+impl SolverConfig {
+    /// Equilibrium settings with the overrides applied.
+    pub fn equilibrium(&self) -> EquilibriumSettings {
+        let mut s = EquilibriumSettings::default();
+        let c = self;
+        s.newton.gradient_abs_tol = c.gradient_abs_tol.unwrap_or(s.newton.gradient_abs_tol);
+        s.newton.gradient_rel_tol = c.gradient_rel_tol.unwrap_or(s.newton.gradient_rel_tol);
+        s.newton.max_iterations = c.max_iterations.unwrap_or(s.newton.max_iterations);
+        s
+    }
 }
 
 /// Curve settings.
@@ -284,65 +353,12 @@ impl Config {
 
     /// The yarn model for yarn radius `r` (m) with the overrides applied.
     pub fn model(&self, r: f64, path: &Path) -> Result<YarnModel, ConfigError> {
-        let bad = |message: String| {
-            Err(ConfigError::Invalid {
-                message,
-                path: path.to_path_buf(),
-            })
-        };
-        let mut model = YarnModel::default_for_radius(r);
-        let m = &self.model;
-        if let StretchLaw::TwoPhase { k1, k2, onset } = &mut model.stretch {
-            *k1 = m.k1.unwrap_or(*k1);
-            *k2 = m.k2.unwrap_or(*k2);
-            *onset = m.onset.unwrap_or(*onset);
-            if !(*k1 > 0.0 && *k2 > 0.0 && *onset >= 0.0) {
-                return bad(format!(
-                    "[model] needs k1 > 0, k2 > 0, onset >= 0 (got {k1}, {k2}, {onset})"
-                ));
-            }
-        }
-        model.bending = m.bending.unwrap_or(model.bending);
-        model.twist = m.twist.unwrap_or(model.twist);
-        if !(model.bending > 0.0 && model.twist >= 0.0) {
-            return bad(format!(
-                "[model] needs bending > 0 and twist >= 0 (got {}, {})",
-                model.bending, model.twist
-            ));
-        }
-        if let Some(k) = m.contact_stiffness {
-            for (phase, k) in model.contact.iter_mut().zip(k) {
-                if !(k > 0.0 && k.is_finite()) {
-                    return bad(format!("[model] contact_stiffness must be > 0, got {k}"));
-                }
-                phase.stiffness = k;
-            }
-        }
-        if let Some(f) = m.contact_radius {
-            for (phase, f) in model.contact.iter_mut().zip(f) {
-                if !(f > 0.0 && f.is_finite()) {
-                    return bad(format!("[model] contact_radius must be > 0, got {f}"));
-                }
-                phase.radius = f * r;
-            }
-        }
-        if let Some(n) = m.simpson_intervals {
-            model.quadrature = Simpson::new(n).ok_or_else(|| ConfigError::Invalid {
-                message: format!("[model] simpson_intervals must be even and >= 2, got {n}"),
-                path: path.to_path_buf(),
-            })?;
-        }
-        Ok(model)
+        self.model.model(r, path)
     }
 
     /// Equilibrium settings with the overrides applied.
     pub fn equilibrium(&self) -> EquilibriumSettings {
-        let mut s = EquilibriumSettings::default();
-        let c = &self.solver;
-        s.newton.gradient_abs_tol = c.gradient_abs_tol.unwrap_or(s.newton.gradient_abs_tol);
-        s.newton.gradient_rel_tol = c.gradient_rel_tol.unwrap_or(s.newton.gradient_rel_tol);
-        s.newton.max_iterations = c.max_iterations.unwrap_or(s.newton.max_iterations);
-        s
+        self.solver.equilibrium()
     }
 
     /// The curve directions and stretches.
@@ -371,6 +387,224 @@ impl Config {
             });
         }
         Ok((directions, uniform_axis(0.0, c.max_stretch, c.points)))
+    }
+}
+
+/// The config of `sim-periodic fit` (seed 002 §7): target curves, the input yarn geometry,
+/// the fixed yarn inputs, the parameters to fit and the optimizer. Paths are relative to the
+/// file; unknown keys are errors.
+///
+/// ```toml
+/// targets = "curves.csv"        # shell-fem curves output (kind,direction,x,c,sigma)
+/// pattern = "stockinette"       # a procedural pattern's input geometry, or
+/// # tile = "stockinette.pyp"    # a yarn geometry file
+/// radius = 1e-3                 # yarn radius of the procedural pattern (m)
+/// out = "fit"                   # output directory (journal, fit.json, fitted-curves.csv)
+///
+/// [model]                       # the fixed inputs, as for the other commands (k2, k_c2, ...)
+/// k2 = 200.0
+///
+/// [parameters]                  # optional; default: the paper's five with its bounds
+/// k1 = "paper"                  # or explicit bounds [min, max] in SI units
+/// bending = [1e-8, 1e-4]
+///
+/// [fit]
+/// rest_shape = true             # estimate the rest shape for every candidate (§7.2)
+/// linear_stretch = false        # true: a linear stretch law, k = k2 (the ablation of Fig. 16)
+/// swarm = true                  # particle swarm before the local search
+/// particles = 16
+/// swarm_iterations = 6
+/// seed = 2022
+/// swarm_samples = 7             # stress samples per direction in the swarm
+/// local = "levenberg-marquardt" # or "cobyla" (the paper's)
+/// local_samples = 20
+/// local_evaluations = 60
+/// compression_nodes = 3
+/// comfort_stress = 33.333       # N/m: 2 N on the paper's 6 cm swatch
+/// ```
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitConfig {
+    /// Target curves (CSV), relative to the config file.
+    pub targets: PathBuf,
+    /// A yarn geometry file (`.pyp`); exclusive with `pattern`.
+    pub tile: Option<PathBuf>,
+    /// A procedural pattern name; exclusive with `tile`.
+    pub pattern: Option<String>,
+    /// Yarn radius of the procedural pattern (m). Default 1e-3.
+    pub radius: Option<f64>,
+    /// Output directory, relative to the config file.
+    pub out: PathBuf,
+    /// The fixed yarn inputs.
+    #[serde(default)]
+    pub model: ModelConfig,
+    /// Solver overrides.
+    #[serde(default)]
+    pub solver: SolverConfig,
+    /// Parameters to fit: name → `"paper"` or `[min, max]`.
+    #[serde(default)]
+    pub parameters: BTreeMap<String, BoundConfig>,
+    /// Optimizer settings.
+    #[serde(default)]
+    pub fit: FitOptions,
+}
+
+/// A parameter's bounds in a [`FitConfig`].
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum BoundConfig {
+    /// `"paper"`: the bounds of seed 002 §7.3.2.
+    Named(String),
+    /// `[min, max]` (SI).
+    Range([f64; 2]),
+}
+
+/// Optimizer settings of a [`FitConfig`] (defaults: [`crate::fit::FitSettings::default`]).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FitOptions {
+    /// Estimate the rest shape for every candidate (§7.2).
+    pub rest_shape: bool,
+    /// A linear stretch law (`k` from `k2`) instead of the two-phase one.
+    pub linear_stretch: bool,
+    /// Run the particle swarm before the local search.
+    pub swarm: bool,
+    /// Swarm particles.
+    pub particles: usize,
+    /// Swarm iterations.
+    pub swarm_iterations: u64,
+    /// Swarm seed.
+    pub seed: u64,
+    /// Stress samples per direction in the swarm.
+    pub swarm_samples: usize,
+    /// `levenberg-marquardt` or `cobyla`.
+    pub local: String,
+    /// Stress samples per direction in the local search.
+    pub local_samples: usize,
+    /// Most local evaluations (COBYLA) or iterations (Levenberg–Marquardt).
+    pub local_evaluations: usize,
+    /// Compression root-finds per direction.
+    pub compression_nodes: usize,
+    /// End of the comfort range as a target stress (N/m).
+    pub comfort_stress: f64,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        let s = crate::fit::FitSettings::default();
+        let swarm = s.swarm.clone().unwrap_or_default();
+        Self {
+            rest_shape: s.swarm_objective.rest_shape,
+            linear_stretch: false,
+            swarm: s.swarm.is_some(),
+            particles: swarm.particles,
+            swarm_iterations: swarm.iterations,
+            seed: swarm.seed,
+            swarm_samples: s.swarm_objective.samples,
+            local: "levenberg-marquardt".into(),
+            local_samples: s.local_objective.samples,
+            local_evaluations: s.local_evaluations,
+            compression_nodes: s.local_objective.compression_nodes,
+            comfort_stress: s.local_objective.comfort_stress,
+        }
+    }
+}
+
+impl FitConfig {
+    /// Reads `path`; relative paths inside are resolved against its directory.
+    pub fn read(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut config: Self = toml::from_str(&text).map_err(|e| {
+            let (line, column) = e
+                .span()
+                .map(|s| line_column(&text, s.start))
+                .unwrap_or((1, 1));
+            ConfigError::Parse {
+                path: path.to_path_buf(),
+                line,
+                column,
+                message: e.message().to_string(),
+            }
+        })?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        config.targets = base.join(&config.targets);
+        config.out = base.join(&config.out);
+        config.tile = config.tile.map(|t| base.join(t));
+        Ok(config)
+    }
+
+    /// The yarn model for radius `r` (m): the overrides, and the linear law if asked for.
+    pub fn model(&self, r: f64, path: &Path) -> Result<YarnModel, ConfigError> {
+        let mut model = self.model.model(r, path)?;
+        if self.fit.linear_stretch {
+            let k = match model.stretch {
+                StretchLaw::TwoPhase { k2, .. } => k2,
+                StretchLaw::Linear { k } => k,
+            };
+            model.stretch = StretchLaw::Linear { k };
+        }
+        Ok(model)
+    }
+
+    /// The fit settings.
+    pub fn settings(&self, path: &Path) -> Result<crate::fit::FitSettings, ConfigError> {
+        use crate::fit::{FitSettings, LocalMethod, ObjectiveSettings, SwarmSettings};
+        let f = &self.fit;
+        let bad = |message: String| ConfigError::Invalid {
+            message,
+            path: path.to_path_buf(),
+        };
+        let local = match f.local.as_str() {
+            "levenberg-marquardt" => LocalMethod::LevenbergMarquardt,
+            "cobyla" => LocalMethod::Cobyla,
+            other => {
+                return Err(bad(format!(
+                    "[fit] local must be \"levenberg-marquardt\" or \"cobyla\", found {other:?}"
+                )));
+            }
+        };
+        if f.swarm_samples < 2 || f.local_samples < 2 || f.compression_nodes < 2 {
+            return Err(bad(format!(
+                "[fit] swarm_samples, local_samples and compression_nodes must be at least 2, \
+                 found {}, {}, {}",
+                f.swarm_samples, f.local_samples, f.compression_nodes
+            )));
+        }
+        if !(f.comfort_stress.is_finite() && f.comfort_stress > 0.0) {
+            return Err(bad(format!(
+                "[fit] comfort_stress must be positive (N/m), found {}",
+                f.comfort_stress
+            )));
+        }
+        let mut curve = crate::curves::CurveSettings::default();
+        curve.equilibrium = self.solver.equilibrium();
+        let objective = |samples: usize| ObjectiveSettings {
+            samples,
+            compression_nodes: f.compression_nodes,
+            comfort_stress: f.comfort_stress,
+            rest_shape: f.rest_shape,
+            relax: crate::patterns::RelaxSettings {
+                equilibrium: curve.equilibrium.clone(),
+                ..Default::default()
+            },
+            curve: curve.clone(),
+        };
+        Ok(FitSettings {
+            swarm: f.swarm.then(|| SwarmSettings {
+                particles: f.particles,
+                iterations: f.swarm_iterations,
+                seed: f.seed,
+            }),
+            start: None,
+            swarm_objective: objective(f.swarm_samples),
+            local_objective: objective(f.local_samples),
+            local,
+            local_evaluations: f.local_evaluations,
+            ..FitSettings::default()
+        })
     }
 }
 

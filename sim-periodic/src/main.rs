@@ -6,10 +6,13 @@
 //! sim-periodic curve    run.toml   # out/curve-<direction>.csv, out/manifest-curve.json
 //! sim-periodic database run.toml   # out/database/{axes.txt,data.npy}, out/pattern.pyp,
 //!                                  # out/samples.csv, out/manifest-database.json
+//! sim-periodic fit      fit.toml   # out/fit.json, out/fitted-curves.csv, out/journal.jsonl,
+//!                                  # out/manifest-fit.json (config: config::FitConfig)
 //! ```
 //!
-//! `database` checkpoints every sample into `out/checkpoint/`; rerunning the same command after
-//! an interruption resumes from there.
+//! `database` checkpoints every sample into `out/checkpoint/`, `fit` journals every objective
+//! evaluation into `out/journal.jsonl`; rerunning the same command after an interruption
+//! resumes from there with the same result.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -53,6 +56,11 @@ enum Command {
         /// TOML config.
         config: PathBuf,
     },
+    /// Fit the yarn parameters to target curves (seed 002 §7; resumable).
+    Fit {
+        /// TOML config (see the library's `config::FitConfig`).
+        config: PathBuf,
+    },
 }
 
 fn main() -> Result<()> {
@@ -61,6 +69,7 @@ fn main() -> Result<()> {
         Command::Relax { config } => relax(&config),
         Command::Curve { config } => curve(&config),
         Command::Database { config } => database(&config),
+        Command::Fit { config } => fit(&config),
     }
 }
 
@@ -301,6 +310,209 @@ fn database(path: &Path) -> Result<()> {
             unsolved.len(),
             samples_file.display()
         );
+    }
+    Ok(())
+}
+
+fn fit(path: &Path) -> Result<()> {
+    use sim_periodic::config::{BoundConfig, FitConfig};
+    use sim_periodic::fit::{
+        Bound, Journal, Parameter, ParameterSpace, Progress, Targets, estimated_radius, fingerprint,
+    };
+    use sim_periodic::patterns::Pattern;
+    let config = FitConfig::read(path)?;
+    let (geometry, radius) = match (&config.tile, &config.pattern) {
+        (Some(tile), None) => {
+            let t = read_pyp(tile)?.tile;
+            let r = t.radius;
+            (t, r)
+        }
+        (None, Some(name)) => {
+            let pattern = Pattern::from_name(name).with_context(|| {
+                format!(
+                    "{}: unknown pattern {name:?}; expected one of {}",
+                    path.display(),
+                    Pattern::ALL.map(|p| p.name()).join(", ")
+                )
+            })?;
+            let r = config.radius.unwrap_or(1e-3);
+            if !(r.is_finite() && r > 0.0) {
+                bail!("{}: radius must be positive (m), found {r}", path.display());
+            }
+            (pattern.generate(&pattern.default_params(r))?, r)
+        }
+        _ => bail!(
+            "{}: give exactly one of `tile` (a .pyp file) and `pattern` (a procedural pattern)",
+            path.display()
+        ),
+    };
+    let model = config.model(radius, path)?;
+    let settings = config.settings(path)?;
+    let targets = Targets::read(&config.targets)?;
+    let r_est = estimated_radius(&geometry, &model)?;
+    let paper = ParameterSpace::paper(&model, r_est)?;
+    let space = if config.parameters.is_empty() {
+        paper
+    } else {
+        let mut free = Vec::new();
+        for (name, bound) in &config.parameters {
+            let parameter = Parameter::from_name(name).with_context(|| {
+                format!(
+                    "{}: [parameters] has no parameter {name:?}; expected one of {}",
+                    path.display(),
+                    Parameter::ALL.map(|p| p.name()).join(", ")
+                )
+            })?;
+            let (min, max) = match bound {
+                BoundConfig::Range([min, max]) => (*min, *max),
+                BoundConfig::Named(n) if n == "paper" => {
+                    let b = paper
+                        .free
+                        .iter()
+                        .find(|b| b.parameter == parameter)
+                        .with_context(|| {
+                            format!(
+                                "{}: parameter {name} has no paper bounds with this stretch law",
+                                path.display()
+                            )
+                        })?;
+                    (b.min, b.max)
+                }
+                BoundConfig::Named(n) => bail!(
+                    "{}: [parameters] {name} must be \"paper\" or [min, max], found {n:?}",
+                    path.display()
+                ),
+            };
+            free.push(Bound {
+                parameter,
+                min,
+                max,
+            });
+        }
+        free.sort_by_key(|b| b.parameter);
+        ParameterSpace::new(paper.base, free)?
+    };
+    std::fs::create_dir_all(&config.out)
+        .with_context(|| format!("creating {}", config.out.display()))?;
+    let journal_path = config.out.join("journal.jsonl");
+    let journal = Journal::open(
+        &journal_path,
+        &fingerprint(&geometry, &targets, &space, &settings),
+    )?;
+    let resumed = journal.len();
+    if resumed > 0 {
+        eprintln!(
+            "resuming: {resumed} evaluations journaled in {}",
+            journal_path.display()
+        );
+    }
+    let swarm_total = settings
+        .swarm
+        .as_ref()
+        .map_or(0, |s| s.particles as u64 * (s.iterations + 1));
+    let swarm_bar = bar(swarm_total, "swarm");
+    let local_bar = ProgressBar::new_spinner().with_message("local");
+    let t = Instant::now();
+    let result = sim_periodic::fit::fit(
+        &geometry,
+        &targets,
+        &space,
+        &settings,
+        &journal,
+        &|p: &Progress| match p.phase {
+            "swarm" => {
+                swarm_bar.inc(1);
+                swarm_bar.set_message(format!("swarm g={:.3e}", p.best));
+            }
+            _ => {
+                swarm_bar.finish_and_clear();
+                local_bar.set_message(format!(
+                    "local: {} evaluations, g = {:.3e}",
+                    p.evaluations, p.best
+                ));
+                local_bar.tick();
+            }
+        },
+    )?;
+    swarm_bar.finish_and_clear();
+    local_bar.finish_and_clear();
+    let seconds = t.elapsed().as_secs_f64();
+
+    let curves = config.out.join("fitted-curves.csv");
+    let mut f =
+        std::fs::File::create(&curves).with_context(|| format!("creating {}", curves.display()))?;
+    writeln!(f, "direction,s,target_sigma,sigma,target_c,c,comfort")?;
+    for p in &result.evaluation.samples {
+        writeln!(
+            f,
+            "{},{},{},{},{},{},{}",
+            p.direction.name(),
+            p.target.s,
+            p.target.sigma,
+            p.sigma,
+            p.target.c,
+            p.c,
+            p.comfort
+        )?;
+    }
+    let parameters: Vec<serde_json::Value> = space
+        .free
+        .iter()
+        .zip(&result.values)
+        .zip(&result.x)
+        .map(|((b, v), x)| {
+            json!({
+                "name": b.parameter.name(),
+                "value": v,
+                "min": b.min,
+                "max": b.max,
+                "normalized": x,
+                "log_scale": b.parameter.log_scale(),
+            })
+        })
+        .collect();
+    let e = &result.evaluation;
+    let summary = json!({
+        "parameters": parameters,
+        "model": format!("{:?}", result.model),
+        "objective": e.value,
+        "comfort_error": e.comfort_error,
+        "power_error": e.power_error,
+        "compression_error": e.compression_error,
+        "rest_stress_n_per_m": [e.rest_stress[(0, 0)], e.rest_stress[(1, 0)], e.rest_stress[(0, 1)], e.rest_stress[(1, 1)]],
+        "swarm_best": result.swarm_best.as_ref().map(|(x, g)| json!({"normalized": x, "objective": g})),
+        "evaluations": { "swarm": result.evaluations[0], "local": result.evaluations[1] },
+        "failed_evaluations": result.failed,
+        "local_status": result.local_status,
+    });
+    write_json(&config.out.join("fit.json"), &summary)?;
+    write_json(
+        &config.out.join("manifest-fit.json"),
+        &json!({
+            "command": "fit",
+            "version": env!("CARGO_PKG_VERSION"),
+            "config": path.display().to_string(),
+            "targets": config.targets.display().to_string(),
+            "geometry": config.tile.as_ref().map(|t| t.display().to_string()).or(config.pattern.clone()),
+            "vertices": geometry.n_vertices(),
+            "r_est_m": r_est,
+            "settings": format!("{settings:?}"),
+            "journaled_before_start": resumed,
+            "seconds": seconds,
+            "threads": rayon::current_num_threads(),
+        }),
+    )?;
+    println!(
+        "fit in {seconds:.1} s ({} swarm + {} local evaluations, {resumed} from the journal): \
+         comfort-range error {:.2} %, objective {:.3e} -> {}",
+        result.evaluations[0],
+        result.evaluations[1],
+        100.0 * e.comfort_error,
+        e.value,
+        config.out.join("fit.json").display()
+    );
+    for (b, v) in space.free.iter().zip(&result.values) {
+        println!("  {:18} {v:.6e}", b.parameter.name());
     }
     Ok(())
 }

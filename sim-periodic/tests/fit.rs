@@ -1,56 +1,15 @@
 //! The yarn-parameter fit (seed 002 §7) recovers known parameters from targets that
 //! `sim-periodic` generated with them.
 
-use sim_periodic::curves::uniaxial_curve;
 use sim_periodic::fit::{
-    FitSettings, Journal, LocalMethod, Objective, ObjectiveSettings, ParameterSpace, TargetPoint,
-    Targets, estimated_radius, fit,
+    FitSettings, Journal, LocalMethod, Objective, ObjectiveSettings, ParameterSpace,
+    estimated_radius, fit,
 };
-use sim_periodic::patterns::Pattern;
 use sim_periodic::periodic::YarnModel;
 use yarn_pattern::direction::Direction;
-use yarn_pattern::tile::Tile;
 
-/// The procedural stockinette's input geometry (not relaxed: the fit estimates rest shapes).
-fn geometry() -> Tile {
-    let p = Pattern::Stockinette;
-    p.generate(&p.default_params(1e-3)).unwrap()
-}
-
-/// Target curves of `model` on `geometry`, exactly as the objective sees a yarn model: rest
-/// shape estimated, then uniaxial curves with zero orthogonal stress.
-fn targets_of(
-    geometry: &Tile,
-    model: &YarnModel,
-    ranges: &[(Direction, f64)],
-    n: usize,
-) -> Targets {
-    let objective = Objective {
-        geometry,
-        targets: &Targets::default(),
-        settings: ObjectiveSettings {
-            ..ObjectiveSettings::default()
-        },
-    };
-    let (tile, _, _) = objective.rest_tile(model).unwrap();
-    let mut targets = Targets::default();
-    for &(d, s_max) in ranges {
-        let s: Vec<f64> = (0..n).map(|i| s_max * i as f64 / (n - 1) as f64).collect();
-        let curve = uniaxial_curve(&tile, model, d, &s, &Default::default()).unwrap();
-        targets.curves.insert(
-            d,
-            curve
-                .iter()
-                .map(|p| TargetPoint {
-                    s: p.s,
-                    c: p.c,
-                    sigma: p.sigma_s,
-                })
-                .collect(),
-        );
-    }
-    targets
-}
+mod common;
+use common::{stockinette_geometry as geometry, targets_of};
 
 #[test]
 fn the_fit_recovers_known_parameters_from_their_own_curves() {

@@ -4,8 +4,10 @@
 #![allow(dead_code)]
 
 use sim_periodic::coarse::Coarse;
+use sim_periodic::fit::{Objective, ObjectiveSettings, TargetPoint, Targets};
 use sim_periodic::periodic::{PeriodicTile, YarnModel, initial_dofs};
 use solver::Assembler;
+use yarn_pattern::direction::Direction;
 use yarn_pattern::tile::Tile;
 
 /// The real stockinette tile of the test data.
@@ -137,4 +139,44 @@ pub fn replicated_dofs(dofs: &[f64], n: usize, k: usize) -> Vec<f64> {
         x[3 * n * copies + n * c..3 * n * copies + n * (c + 1)].copy_from_slice(&dofs[3 * n..]);
     }
     x
+}
+
+/// The procedural stockinette's input geometry (not relaxed: the fit estimates rest shapes).
+pub fn stockinette_geometry() -> Tile {
+    let p = sim_periodic::patterns::Pattern::Stockinette;
+    p.generate(&p.default_params(1e-3)).unwrap()
+}
+
+/// Target curves of `model` on `geometry`, exactly as the objective sees a yarn model: rest
+/// shape estimated, then uniaxial curves with zero orthogonal stress.
+pub fn targets_of(
+    geometry: &Tile,
+    model: &YarnModel,
+    ranges: &[(Direction, f64)],
+    n: usize,
+) -> Targets {
+    let objective = Objective {
+        geometry,
+        targets: &Targets::default(),
+        settings: ObjectiveSettings::default(),
+    };
+    let (tile, _, _) = objective.rest_tile(model).unwrap();
+    let mut targets = Targets::default();
+    for &(d, s_max) in ranges {
+        let s: Vec<f64> = (0..n).map(|i| s_max * i as f64 / (n - 1) as f64).collect();
+        let curve =
+            sim_periodic::curves::uniaxial_curve(&tile, model, d, &s, &Default::default()).unwrap();
+        targets.curves.insert(
+            d,
+            curve
+                .iter()
+                .map(|p| TargetPoint {
+                    s: p.s,
+                    c: p.c,
+                    sigma: p.sigma_s,
+                })
+                .collect(),
+        );
+    }
+    targets
 }
