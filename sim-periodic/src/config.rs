@@ -579,8 +579,10 @@ impl FitConfig {
                 f.comfort_stress
             )));
         }
-        let mut curve = crate::curves::CurveSettings::default();
-        curve.equilibrium = self.solver.equilibrium();
+        let curve = crate::curves::CurveSettings {
+            equilibrium: self.solver.equilibrium(),
+            ..Default::default()
+        };
         let objective = |samples: usize| ObjectiveSettings {
             samples,
             compression_nodes: f.compression_nodes,
@@ -593,7 +595,7 @@ impl FitConfig {
             curve: curve.clone(),
         };
         Ok(FitSettings {
-            swarm: f.swarm.then(|| SwarmSettings {
+            swarm: f.swarm.then_some(SwarmSettings {
                 particles: f.particles,
                 iterations: f.swarm_iterations,
                 seed: f.seed,
