@@ -588,6 +588,7 @@ impl FitConfig {
             compression_nodes: f.compression_nodes,
             comfort_stress: f.comfort_stress,
             rest_shape: f.rest_shape,
+            stress_free_period: true,
             relax: crate::patterns::RelaxSettings {
                 equilibrium: curve.equilibrium.clone(),
                 ..Default::default()

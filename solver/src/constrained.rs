@@ -629,6 +629,10 @@ fn pseudo_random(mut seed: u64, offset: f64, out: &mut [f64]) {
     }
 }
 
+/// Shifts (relative to `max_i |H_ii|`) tried by [`ConstrainedNewtonSolver::sensitivities`]:
+/// none, then tiny ones for a semidefinite reduced Hessian.
+const SENSITIVITY_SHIFTS: [f64; 4] = [0.0, 1e-10, 1e-8, 1e-6];
+
 /// A reusable equality-constrained Newton minimizer for one problem structure and one
 /// constraint matrix (the augmented pattern, its symbolic Cholesky and the rank check are done
 /// once).
@@ -693,8 +697,9 @@ impl ConstrainedNewtonSolver {
     /// `b = −∂g/∂θ`, and a quantity `Q(x, θ)` changes by `dQ/dθ = ∂Q/∂θ + ∂Q/∂x · y`; read
     /// as an adjoint (the matrix is symmetric), one solve with `b = ∂Q/∂x` serves every
     /// parameter. The factorization is the Newton step's without shift, with one refinement
-    /// step per right-hand side. Errors with [`SolveError::NotAStrictMinimum`] when the reduced
-    /// Hessian is not numerically positive definite.
+    /// step per right-hand side. A reduced Hessian that is only semidefinite (a zero-energy
+    /// mode) is shifted by the smallest of `1e-10`, `1e-8`, `1e-6` × `max_i |H_ii|` that
+    /// factorizes; errors with [`SolveError::NotAStrictMinimum`] when none does (a saddle).
     pub fn sensitivities<P: Problem + ?Sized>(
         &mut self,
         problem: &P,
@@ -708,9 +713,34 @@ impl ConstrainedNewtonSolver {
         }
         self.assembler.assemble(problem, x, false)?;
         let h = self.assembler.hessian();
-        self.system
-            .factorize(Some(h.val()), 0.0)
-            .map_err(SolveError::NotAStrictMinimum)?;
+        // A positive semidefinite reduced Hessian (a zero-energy mode, e.g. a yarn free to
+        // slide) gets the smallest of a few tiny shifts that factorizes: the derivative is
+        // then the regularized system's, close to the minimum-norm one.
+        let scale = {
+            let (sym, values) = (h.symbolic(), h.val());
+            let mut scale = 0.0f64;
+            for j in 0..n {
+                let range = sym.col_range(j);
+                for (&i, &v) in sym.row_idx()[range.clone()].iter().zip(&values[range]) {
+                    if i == j {
+                        scale = scale.max(v.abs());
+                    }
+                }
+            }
+            if scale > 0.0 && scale.is_finite() {
+                scale
+            } else {
+                1.0
+            }
+        };
+        let mut factorized = Err(String::new());
+        for shift in SENSITIVITY_SHIFTS {
+            factorized = self.system.factorize(Some(h.val()), shift * scale);
+            if factorized.is_ok() {
+                break;
+            }
+        }
+        factorized.map_err(SolveError::NotAStrictMinimum)?;
         let mut out = Vec::with_capacity(rhs.len());
         for b in rhs {
             self.system.rhs[..n].copy_from_slice(b);

@@ -25,6 +25,20 @@ fn random_constraints(
     (triplets, d)
 }
 
+/// The dense KKT matrix `[H Cᵀ; C 0]` of a dense `H` and constraint triplets (`m` rows).
+fn dense_kkt(h: &[Vec<f64>], triplets: &[(usize, usize, f64)], m: usize) -> Vec<Vec<f64>> {
+    let n = h.len();
+    let mut kkt = vec![vec![0.0; n + m]; n + m];
+    for i in 0..n {
+        kkt[i][..n].copy_from_slice(&h[i]);
+    }
+    for &(r, c, v) in triplets {
+        kkt[n + r][c] += v;
+        kkt[c][n + r] += v;
+    }
+    kkt
+}
+
 /// Closed form: the minimizer of `½xᵀHx − bᵀx` s.t. `Cx = d` solves
 /// `[H Cᵀ; C 0] [x; λ] = [b; d]`.
 #[test]
@@ -36,14 +50,7 @@ fn constrained_quadratic_matches_closed_form_kkt_solution() {
     let constraints = LinearConstraints::new(n, &triplets, &d).unwrap();
 
     let (h, g0) = q.dense(&vec![0.0; n]);
-    let mut kkt = vec![vec![0.0; n + m]; n + m];
-    for i in 0..n {
-        kkt[i][..n].copy_from_slice(&h[i]);
-    }
-    for &(r, c, v) in &triplets {
-        kkt[n + r][c] += v;
-        kkt[c][n + r] += v;
-    }
+    let kkt = dense_kkt(&h, &triplets, m);
     let rhs: Vec<f64> = g0.iter().map(|g| -g).chain(d.iter().copied()).collect();
     let reference = dense_solve(&kkt, &rhs);
 
@@ -277,4 +284,38 @@ fn constrained_newton_leaves_a_saddle_with_no_gradient_along_its_unstable_mode()
     assert!((q[1] + 2.0 * q[2] - 1.0).abs() < 1e-12);
     // Every accepted step of an indefinite reduced Hessian was shifted.
     assert!(report.regularizations.iter().any(|&mu| mu > 0.0));
+}
+
+/// Implicit differentiation: at the minimizer, `sensitivities` solves the KKT system for each
+/// right-hand side, as the dense KKT matrix does; at a saddle it refuses.
+#[test]
+fn sensitivities_solve_the_kkt_system_and_refuse_a_saddle() {
+    let mut rng = Rng::new(7);
+    let q = spd_quadratic(3, 24);
+    let (n, m) = (q.n, 4);
+    let (triplets, d) = random_constraints(&mut rng, n, m, 3);
+    let constraints = LinearConstraints::new(n, &triplets, &d).unwrap();
+    let mut x = vec![0.0; n];
+    let mut solver = ConstrainedNewtonSolver::new(&q, &constraints).unwrap();
+    solver
+        .minimize(&q, &mut x, &NewtonSettings::default())
+        .unwrap();
+    let (h, _) = q.dense(&x);
+    let kkt = dense_kkt(&h, &triplets, m);
+    let rhs: Vec<Vec<f64>> = (0..2)
+        .map(|_| (0..n).map(|_| rng.range(-1.0, 1.0)).collect())
+        .collect();
+    let got = solver.sensitivities(&q, &x, &rhs).unwrap();
+    for (b, y) in rhs.iter().zip(&got) {
+        let full: Vec<f64> = b.iter().copied().chain(vec![0.0; m]).collect();
+        let reference = dense_solve(&kkt, &full);
+        assert_close(y, &reference[..n], 1e-10, "dx");
+    }
+    // `Saddle` at its stationary point (0, 1, −1), where H_xx = −2: no sensitivities.
+    let none = LinearConstraints::new(3, &[], &[]).unwrap();
+    let mut s = ConstrainedNewtonSolver::new(&Saddle, &none).unwrap();
+    let e = s
+        .sensitivities(&Saddle, &[0.0, 1.0, -1.0], &[vec![1.0, 0.0, 0.0]])
+        .unwrap_err();
+    assert!(matches!(e, SolveError::NotAStrictMinimum(_)), "{e}");
 }

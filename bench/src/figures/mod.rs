@@ -28,3 +28,5 @@ pub mod shell_fit;
 pub mod shell_fit_all;
 pub mod shell_nh_vs_stvk;
 pub mod shell_time_vs_error;
+pub mod yarn_fit;
+pub mod yarn_fit_ablations;

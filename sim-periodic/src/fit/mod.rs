@@ -57,6 +57,9 @@ pub enum FitError {
     /// The rest-shape estimation failed.
     #[error("rest-shape estimation: {0}")]
     RestShape(#[from] PatternError),
+    /// The stress-free period could not be found.
+    #[error("rest period: {0}")]
+    RestPeriod(#[from] crate::database::GenerationError),
     /// A compression root-find failed.
     #[error("compression: {0}")]
     Curve(#[from] CurveError),
@@ -116,7 +119,8 @@ pub struct FitSettings {
     pub local_objective: ObjectiveSettings,
     /// The local method. Default [`LocalMethod::LevenbergMarquardt`].
     pub local: LocalMethod,
-    /// Most local evaluations (COBYLA) or iterations (Levenberg–Marquardt). Default 60.
+    /// Most local evaluations (COBYLA: at least `n + 2`) or iterations (Levenberg–Marquardt,
+    /// at least 1). Default 60.
     pub local_evaluations: usize,
     /// COBYLA's initial step in the normalized box. Default 0.1.
     pub local_step: f64,
@@ -302,7 +306,12 @@ pub fn fit(
     progress: &(dyn Fn(&Progress) + Sync),
 ) -> Result<FitResult, FitError> {
     let n = space.dim();
-    if settings.local_evaluations < n + 2 {
+    if settings.local_evaluations == 0 {
+        return Err(FitError::Invalid(
+            "the local search needs at least one evaluation".into(),
+        ));
+    }
+    if settings.local == LocalMethod::Cobyla && settings.local_evaluations < n + 2 {
         return Err(FitError::Invalid(format!(
             "COBYLA needs at least n + 2 = {} evaluations, found {}",
             n + 2,
@@ -522,7 +531,7 @@ fn lm_search(
         });
         Ok((r, jacobian, ()))
     };
-    let outcome = solver::bounded_lm(
+    let outcome = match solver::bounded_lm(
         p0,
         &bounds,
         &lm_settings,
@@ -530,11 +539,19 @@ fn lm_search(
         &mut eval,
         &mut |_| {},
         None,
-    )
-    .map_err(|e| match e {
-        solver::LmError::InitialEvaluation(e) => e,
-        other => FitError::Optimizer(other.to_string()),
-    })?;
+    ) {
+        Ok(outcome) => outcome,
+        // No Jacobian at the start (e.g. its equilibrium is a saddle, whose sensitivities do
+        // not exist): keep the start and say why.
+        Err(solver::LmError::InitialEvaluation(e)) => {
+            return Ok((
+                start.to_vec(),
+                format!("Levenberg–Marquardt could not start ({e}); the start point is kept"),
+                count,
+            ));
+        }
+        Err(other) => return Err(FitError::Optimizer(other.to_string())),
+    };
     Ok((
         outcome.p[..n].to_vec(),
         format!(

@@ -1,0 +1,225 @@
+//! `yarn-fit-ablations`: the yarn fit of the development fabric (`acrylic-yarn-stockinette`
+//! on the procedural stockinette, the stiffening shell's targets) with one ingredient changed
+//! at a time, as seed 002's Figs. 11, 16 and 17 do: without the particle swarm, with a linear
+//! instead of the bi-phasic yarn stretch law, without the rest-shape estimation; and the two
+//! local methods, the paper's COBYLA and Levenberg–Marquardt with exact sensitivities, compared
+//! for cost and final error.
+
+use std::time::Instant;
+
+use rod::stretch::StretchLaw;
+use sim_periodic::fit::{
+    Evaluation, FitSettings, Journal, LocalMethod, ParameterSpace, Targets, estimated_radius, fit,
+};
+use sim_periodic::periodic::YarnModel;
+use yarn_pattern::direction::Direction;
+
+use super::yarn_fit::{DEVELOPMENT_FABRIC, fabrics, pattern_of, settings, shell_targets};
+use crate::plot::{LineChart, Series, save_grid};
+use crate::{FigureContext, FigureOutput, FigureSpec, Table};
+
+/// Registry entry.
+pub fn spec() -> FigureSpec {
+    FigureSpec {
+        name: "yarn-fit-ablations",
+        title: "Yarn fit ablations: swarm, stretch law, rest shape, local method",
+        shows: "stretch stress against stretch (weft, warp) of the development fabric's shell targets and of the yarn model fitted with: swarm + Levenberg–Marquardt (ours, default), swarm + COBYLA (paper), COBYLA without swarm (Fig. 11), Levenberg–Marquardt without swarm, a linear yarn stretch law (Fig. 16), no rest-shape estimation (Fig. 17); last panel: comfort-range error and fit time per variant",
+        paper: "Figs. 11, 16, 17: without the swarm, with a linear stretch law or without rest-shape estimation the stretching error blows up",
+        guarded: false,
+        run,
+    }
+}
+
+/// One variant: its name and how it changes the default settings and model.
+struct Variant {
+    name: &'static str,
+    swarm: bool,
+    local: LocalMethod,
+    linear_stretch: bool,
+    rest_shape: bool,
+}
+
+const VARIANTS: [Variant; 6] = [
+    Variant {
+        name: "swarm + LM (default)",
+        swarm: true,
+        local: LocalMethod::LevenbergMarquardt,
+        linear_stretch: false,
+        rest_shape: true,
+    },
+    Variant {
+        name: "swarm + COBYLA (paper)",
+        swarm: true,
+        local: LocalMethod::Cobyla,
+        linear_stretch: false,
+        rest_shape: true,
+    },
+    Variant {
+        name: "COBYLA, no swarm",
+        swarm: false,
+        local: LocalMethod::Cobyla,
+        linear_stretch: false,
+        rest_shape: true,
+    },
+    Variant {
+        name: "LM, no swarm",
+        swarm: false,
+        local: LocalMethod::LevenbergMarquardt,
+        linear_stretch: false,
+        rest_shape: true,
+    },
+    Variant {
+        name: "linear stretch",
+        swarm: true,
+        local: LocalMethod::LevenbergMarquardt,
+        linear_stretch: true,
+        rest_shape: true,
+    },
+    Variant {
+        name: "no rest shape",
+        swarm: true,
+        local: LocalMethod::LevenbergMarquardt,
+        linear_stretch: false,
+        rest_shape: false,
+    },
+];
+
+fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
+    let (all, opts) = fabrics(ctx.quick)?;
+    let fabric = all
+        .iter()
+        .find(|f| f.name == DEVELOPMENT_FABRIC)
+        .ok_or_else(|| anyhow::anyhow!("fabric {DEVELOPMENT_FABRIC} not found"))?;
+    let targets: Targets = shell_targets(fabric, &opts)?;
+    let pattern = pattern_of(&fabric.name)?;
+    let geometry = pattern.generate(&pattern.default_params(1e-3))?;
+    let progress = ctx.progress(VARIANTS.len() as u64, "variants");
+    let mut data = Table::new(&[
+        "variant",
+        "comfort_error",
+        "power_error",
+        "compression_error",
+        "objective",
+        "swarm_evaluations",
+        "local_evaluations",
+        "seconds",
+    ]);
+    let mut summary = Vec::new();
+    let mut results: Vec<(&Variant, Evaluation, f64)> = Vec::new();
+    let mut config = Vec::new();
+    for (i, v) in VARIANTS.iter().enumerate() {
+        let mut base = YarnModel::default_for_radius(1e-3);
+        if v.linear_stretch
+            && let StretchLaw::TwoPhase { k2, .. } = base.stretch
+        {
+            base.stretch = StretchLaw::Linear { k: k2 };
+        }
+        let space = ParameterSpace::paper(&base, estimated_radius(&geometry, &base)?)?;
+        let mut s: FitSettings = settings(ctx.quick);
+        if !v.swarm {
+            s.swarm = None;
+        }
+        s.local = v.local;
+        if v.local == LocalMethod::Cobyla {
+            // COBYLA counts evaluations, LM iterations: give COBYLA as many evaluations as
+            // the default LM run is allowed iterations, and at least n + 2.
+            s.local_evaluations = s.local_evaluations.max(space.dim() + 2);
+        }
+        s.swarm_objective.rest_shape = v.rest_shape;
+        s.local_objective.rest_shape = v.rest_shape;
+        let t = Instant::now();
+        let result = fit(
+            &geometry,
+            &targets,
+            &space,
+            &s,
+            &Journal::in_memory(),
+            &|_| {},
+        )?;
+        let seconds = t.elapsed().as_secs_f64();
+        let e = result.evaluation.clone();
+        data.push_row([
+            i as f64,
+            e.comfort_error,
+            e.power_error,
+            e.compression_error,
+            e.value,
+            result.evaluations[0] as f64,
+            result.evaluations[1] as f64,
+            seconds,
+        ]);
+        summary.push((
+            v.name.to_string(),
+            format!(
+                "comfort-range error {}, power range {}, compression {:.3}, g = {:.3e}; {} + {} evaluations, {seconds:.1} s ({})",
+                crate::percent(e.comfort_error),
+                crate::percent(e.power_error),
+                e.compression_error,
+                e.value,
+                result.evaluations[0],
+                result.evaluations[1],
+                result.local_status
+            ),
+        ));
+        config.push(serde_json::json!({
+            "variant": v.name, "parameters": result.values, "normalized": result.x,
+            "space": space.free.iter().map(|b| b.parameter.name()).collect::<Vec<_>>(),
+        }));
+        results.push((v, e, seconds));
+        progress.inc(1);
+    }
+
+    let mut charts = Vec::new();
+    for d in [Direction::Weft, Direction::Warp] {
+        let Some(curve) = targets.curves.get(&d) else {
+            continue;
+        };
+        let mut chart = LineChart::new(format!("{DEVELOPMENT_FABRIC}: {}", d.name()))
+            .x_label("stretch s")
+            .y_label("stretch stress σ_s (N/m)")
+            .series(Series::line(
+                "shell targets",
+                curve.iter().map(|p| (p.s, p.sigma)),
+            ));
+        for (v, e, _) in &results {
+            chart = chart.series(Series::line_markers(
+                v.name,
+                e.samples
+                    .iter()
+                    .filter(|p| p.direction == d)
+                    .map(|p| (p.target.s, p.sigma)),
+            ));
+        }
+        charts.push(chart);
+    }
+    let errors = LineChart::new("comfort-range error (%) and fit time (s) per variant")
+        .x_label("variant (order of the summary)")
+        .y_label("error (%) / time (s)")
+        .series(Series::line_markers(
+            "comfort-range error (%)",
+            results
+                .iter()
+                .enumerate()
+                .map(|(i, (_, e, _))| (i as f64, 100.0 * e.comfort_error)),
+        ))
+        .series(Series::line_markers(
+            "fit time (s)",
+            results
+                .iter()
+                .enumerate()
+                .map(|(i, (_, _, t))| (i as f64, *t)),
+        ));
+    charts.push(errors);
+    let refs: Vec<&LineChart> = charts.iter().collect();
+    save_grid(&refs, 3, 1.0, &ctx.out_dir, ctx.name)?;
+    Ok(FigureOutput {
+        summary,
+        config: serde_json::json!({
+            "fabric": DEVELOPMENT_FABRIC,
+            "pattern": pattern.name(),
+            "variants": config,
+            "threads": rayon::current_num_threads(),
+        }),
+        data,
+    })
+}
