@@ -50,6 +50,7 @@ use crate::periodic::{
     Equilibrium, PeriodicTile, YarnModel, solve_equilibrium, stress_sensitivities,
 };
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
+use rayon::prelude::*;
 use yarn_pattern::direction::Direction;
 use yarn_pattern::tile::Tile;
 
@@ -142,6 +143,12 @@ pub struct Evaluation {
     /// Newton iterations of all solves.
     pub iterations: usize,
 }
+
+/// A sample's Jacobian row: `(dσ/dx, dc/dx, stretch factor, compression factor)`.
+type Row = (Vec<f64>, Vec<f64>, f64, f64);
+
+/// One direction's samples, rows and Newton iterations.
+type DirectionResult = (Vec<Sample>, Vec<Row>, usize);
 
 /// Per-direction normalization of the targets (module documentation).
 #[derive(Clone, Copy, Debug)]
@@ -350,10 +357,15 @@ impl Objective<'_> {
             }
             Ok(total)
         };
-        let mut samples = Vec::new();
-        // Per sample: (dσ/dx, dc/dx, stretch factor, compression factor).
-        let mut rows: Vec<(Vec<f64>, Vec<f64>, f64, f64)> = Vec::new();
-        for (&d, curve) in &self.targets.curves {
+        // One direction: its samples, their Jacobian rows (dσ/dx, dc/dx, stretch factor,
+        // compression factor) and Newton iterations. Directions are independent and run in
+        // parallel; the results are merged in direction order.
+        let direction = |d: Direction,
+                         curve: &[TargetPoint]|
+         -> Result<DirectionResult, FitError> {
+            let mut samples = Vec::new();
+            let mut rows: Vec<Row> = Vec::new();
+            let mut iterations = 0;
             let (u, v) = (
                 Vector2::new(d.angle().cos(), d.angle().sin()),
                 Vector2::new(-d.angle().sin(), d.angle().cos()),
@@ -438,6 +450,25 @@ impl Objective<'_> {
                     compression_term: compression_factor * (c - target.c),
                 });
             }
+            Ok((samples, rows, iterations))
+        };
+        let directions: Vec<(Direction, &[TargetPoint])> = self
+            .targets
+            .curves
+            .iter()
+            .map(|(&d, c)| (d, c.as_slice()))
+            .collect();
+        let results: Vec<Result<DirectionResult, FitError>> = directions
+            .par_iter()
+            .map(|&(d, curve)| direction(d, curve))
+            .collect();
+        let mut samples = Vec::new();
+        let mut rows: Vec<Row> = Vec::new();
+        for result in results {
+            let (s, r, i) = result?;
+            samples.extend(s);
+            rows.extend(r);
+            iterations += i;
         }
         let n = samples.len() as f64;
         let value = samples
