@@ -6,7 +6,8 @@
 //! points and takes the value of every journaled one from the file, bit for bit: it loses no
 //! finished evaluation and reaches the same result as an uninterrupted run. The first line
 //! holds a fingerprint of the inputs; a journal written for other inputs is refused. A last
-//! line cut short by the kill is dropped.
+//! line cut short by the kill is dropped. Levenberg–Marquardt evaluations (residuals and
+//! Jacobians) are not journaled: a run killed during it repeats them, with the same result.
 
 use std::collections::HashMap;
 use std::fs::{File, OpenOptions};

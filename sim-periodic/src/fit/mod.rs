@@ -9,13 +9,17 @@
 //! - [`objective`]: the rest-shape estimation (§7.2) and the objective of Eq. 11 (§7.3.1);
 //! - [`targets`]: reading the target curves;
 //! - [`journal`]: the evaluation journal that makes a fit resumable;
-//! - [`fit`] (here): global search by particle swarm ([`argmin`]'s), then local refinement by
-//!   COBYLA ([`cobyla`], as the paper, §7.3.3).
+//! - [`fit`] (here): global search by particle swarm ([`argmin`]'s), then local refinement,
+//!   by default Levenberg–Marquardt on the residuals of Eq. 11 with Jacobians from implicit
+//!   differentiation of every equilibrium ([`crate::periodic::stress_sensitivities`]; beyond
+//!   the paper), or COBYLA ([`cobyla`], as the paper, §7.3.3).
 //!
 //! **Differences from the paper.** The swarm is argmin's standard PSO (SPSO 2011: constant
 //! inertia `1/(2 ln 2)`, cognitive and social factors `½ + ln 2`) instead of the paper's
 //! decaying inertia (0.9 → 0.1) with repulsion, and it is sized for two cores
-//! ([`SwarmSettings`]), not the paper's 64 particles × 10 steps on 256 cores.
+//! ([`SwarmSettings`]), not the paper's 64 particles × 10 steps on 256 cores. After the
+//! rest-shape rounds the period is relaxed to zero normal coarse stress
+//! ([`ObjectiveSettings::stress_free_period`]).
 
 pub mod journal;
 pub mod objective;
@@ -293,10 +297,12 @@ pub fn fingerprint(
 }
 
 /// Fits `space`'s free parameters to `targets` on the input yarn geometry `geometry`: a
-/// particle swarm over the normalized box (unless `settings.swarm` is `None`), then COBYLA
-/// from the swarm's best point, then one evaluation of the result with the local settings.
-/// Every evaluation goes through `journal` (see [`journal`]), so an interrupted fit rerun
-/// with the same journal resumes and ends with the same result.
+/// particle swarm over the normalized box (unless `settings.swarm` is `None`), then the local
+/// method ([`FitSettings::local`]) from the swarm's best point, then one evaluation of the
+/// result with the local settings. Every swarm and COBYLA evaluation goes through `journal`
+/// (see [`journal`]), so an interrupted fit rerun with the same journal resumes and ends with
+/// the same result; Levenberg–Marquardt evaluations are not journaled (a rerun repeats them,
+/// deterministically).
 pub fn fit(
     geometry: &yarn_pattern::tile::Tile,
     targets: &Targets,
