@@ -324,11 +324,7 @@ pub enum ConfigError {
 impl Config {
     /// Reads `path`; relative paths inside are resolved against its directory.
     pub fn read(path: &Path) -> Result<Self, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let mut config = Self::parse(&text, path)?;
+        let mut config: Self = read_toml(path)?;
         let base = path.parent().unwrap_or(Path::new("."));
         config.tile = base.join(&config.tile);
         config.out = base.join(&config.out);
@@ -337,18 +333,7 @@ impl Config {
 
     /// Parses TOML `text` (`path` names it in errors).
     pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
-        toml::from_str::<Config>(text).map_err(|e| {
-            let (line, column) = e
-                .span()
-                .map(|s| line_column(text, s.start))
-                .unwrap_or((1, 1));
-            ConfigError::Parse {
-                path: path.to_path_buf(),
-                line,
-                column,
-                message: e.message().to_string(),
-            }
-        })
+        parse_toml(text, path)
     }
 
     /// The yarn model for yarn radius `r` (m) with the overrides applied.
@@ -513,22 +498,7 @@ impl Default for FitOptions {
 impl FitConfig {
     /// Reads `path`; relative paths inside are resolved against its directory.
     pub fn read(path: &Path) -> Result<Self, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let mut config: Self = toml::from_str(&text).map_err(|e| {
-            let (line, column) = e
-                .span()
-                .map(|s| line_column(&text, s.start))
-                .unwrap_or((1, 1));
-            ConfigError::Parse {
-                path: path.to_path_buf(),
-                line,
-                column,
-                message: e.message().to_string(),
-            }
-        })?;
+        let mut config: Self = read_toml(path)?;
         let base = path.parent().unwrap_or(Path::new("."));
         config.targets = base.join(&config.targets);
         config.out = base.join(&config.out);
@@ -609,6 +579,31 @@ impl FitConfig {
             ..FitSettings::default()
         })
     }
+}
+
+/// Reads and parses the TOML file `path` (errors name it, with line and column).
+fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, ConfigError> {
+    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_toml(&text, path)
+}
+
+/// Parses TOML `text` read from `path` (named in errors, with line and column).
+fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<T, ConfigError> {
+    toml::from_str::<T>(text).map_err(|e| {
+        let (line, column) = e
+            .span()
+            .map(|s| line_column(text, s.start))
+            .unwrap_or((1, 1));
+        ConfigError::Parse {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message: e.message().to_string(),
+        }
+    })
 }
 
 /// 1-based (line, column) of byte offset `at` in `text`.

@@ -459,24 +459,12 @@ pub fn generate(
             }
         }
         match repaired {
-            Some((eq, iterations, substeps)) => {
-                if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
-                    return Err(GenerationError::NonFinite(strain));
-                }
+            Some(solved) => {
                 let filled = results[f].as_ref().map_or(0.0, |(r, _)| r.seconds);
-                let record = SampleRecord {
-                    index,
-                    strain,
-                    density: eq.density,
-                    stress: eq.stress,
-                    iterations,
-                    substeps,
-                    seconds: filled + t.elapsed().as_secs_f64(),
-                    resumed: false,
-                    solved: true,
-                };
-                progress(&record);
-                results[f] = Some((record, (strain, eq.dofs)));
+                let solved =
+                    solved_sample(index, strain, solved, filled + t.elapsed().as_secs_f64())?;
+                progress(&solved.0);
+                results[f] = Some(solved);
             }
             None if settings.fill_unsolved => {
                 if let Some((record, _)) = &results[f] {
@@ -501,6 +489,31 @@ type Parent = (Strain, Vec<f64>);
 /// unsolved).
 type Solved = (SampleRecord, Parent);
 
+/// The record and state of a sample solved by [`continue_to`] (its equilibrium, Newton
+/// iterations and sub-steps) in `seconds`; a non-finite result is an error.
+fn solved_sample(
+    index: [usize; 3],
+    strain: Strain,
+    (eq, iterations, substeps): (Equilibrium, usize, usize),
+    seconds: f64,
+) -> Result<Solved, GenerationError> {
+    if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
+        return Err(GenerationError::NonFinite(strain));
+    }
+    let record = SampleRecord {
+        index,
+        strain,
+        density: eq.density,
+        stress: eq.stress,
+        iterations,
+        substeps,
+        seconds,
+        resumed: false,
+        solved: true,
+    };
+    Ok((record, (strain, eq.dofs)))
+}
+
 /// Solves the sample `index` (strain `strain_at(index)`) for [`generate`], continuing from
 /// `from` ([`continue_to`]). A sample the continuation cannot reach gets, for now, the state of
 /// `from`'s DOFs under its strain (unsolved; [`generate`] tries to repair it later) and the
@@ -516,22 +529,9 @@ fn solve_or_fill(
 ) -> Result<(SampleRecord, Parent, Option<GenerationError>), GenerationError> {
     let t = Instant::now();
     match continue_to(tile, model, from, strain, settings) {
-        Ok((eq, iterations, substeps)) => {
-            if !eq.dofs.iter().all(|v| v.is_finite()) || !eq.density.is_finite() {
-                return Err(GenerationError::NonFinite(strain));
-            }
-            let record = SampleRecord {
-                index,
-                strain,
-                density: eq.density,
-                stress: eq.stress,
-                iterations,
-                substeps,
-                seconds: t.elapsed().as_secs_f64(),
-                resumed: false,
-                solved: true,
-            };
-            Ok((record, (strain, eq.dofs), None))
+        Ok(solved) => {
+            let (record, parent) = solved_sample(index, strain, solved, t.elapsed().as_secs_f64())?;
+            Ok((record, parent, None))
         }
         Err(error @ GenerationError::Solve { .. }) => {
             let (density, stress) =

@@ -2,7 +2,7 @@
 //! result as an uninterrupted run; bad configs are refused with the file and the problem.
 
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use sim_periodic::fit::{ParameterSpace, estimated_radius};
 use sim_periodic::periodic::YarnModel;
@@ -77,15 +77,10 @@ fn a_fit_killed_mid_swarm_resumes_to_the_uninterrupted_result() {
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    let start = Instant::now();
     while journal_entries(&journal) < 3 {
         assert!(
             child.try_wait().unwrap().is_none(),
             "the fit finished before it could be killed"
-        );
-        assert!(
-            start.elapsed() < Duration::from_secs(120),
-            "no journal entries"
         );
         std::thread::sleep(Duration::from_millis(20));
     }

@@ -127,7 +127,8 @@ pub fn geometry_and_space(
 ) -> anyhow::Result<(Tile, ParameterSpace)> {
     let geometry = pattern.generate(&pattern.default_params(1e-3))?;
     let r_est = estimated_radius(&geometry, base)?;
-    Ok((geometry.clone(), ParameterSpace::paper(base, r_est)?))
+    let space = ParameterSpace::paper(base, r_est)?;
+    Ok((geometry, space))
 }
 
 /// Fit settings of the full and the quick run.

@@ -47,7 +47,7 @@ use crate::curves::{CurveSettings, directional_stress, uniaxial_curve_states};
 use crate::database::{material_warm_start, relax_period};
 use crate::patterns::{RelaxSettings, relax};
 use crate::periodic::{
-    Equilibrium, PeriodicTile, YarnModel, solve_equilibrium, stress_sensitivities,
+    Equilibrium, YarnModel, equilibrium_problem, solve_equilibrium, stress_sensitivities,
 };
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
 use rayon::prelude::*;
@@ -346,12 +346,12 @@ impl Objective<'_> {
         let derivatives = |eq: &Equilibrium, angle: f64| -> Result<Vec<Matrix2<f64>>, FitError> {
             let (space, _) = differentiate.expect("only when differentiating");
             let v = Vector2::new(-angle.sin(), angle.cos());
-            let problem = PeriodicTile::new(&tile, *model, eq.coarse, eq.pairs.clone())?;
+            let problem = equilibrium_problem(&tile, model, eq)?;
             let mut partials = vec![problem.coarse_partial(&eq.dofs, &(-(v * v.transpose())))?];
             for b in &space.free {
                 partials.push(parameter_partial(&tile, model, eq, b.parameter)?);
             }
-            let mut total = stress_sensitivities(&tile, model, eq, &partials)?;
+            let mut total = stress_sensitivities(&problem, &eq.dofs, &partials)?;
             for (t, scale) in total[1..].iter_mut().zip(&dp_dx) {
                 *t *= *scale;
             }

@@ -22,7 +22,7 @@
 //! The optimizers see every parameter normalized to `[0, 1]` (log-scaled ones in log space).
 
 use crate::coarse::Coarse;
-use crate::periodic::{Equilibrium, Partial, PeriodicTile, YarnModel};
+use crate::periodic::{Equilibrium, Partial, PeriodicTile, YarnModel, equilibrium_problem};
 use rod::contact::closest_points;
 use rod::stretch::StretchLaw;
 use yarn_pattern::tile::Tile;
@@ -292,7 +292,7 @@ pub fn parameter_partial(
     parameter: Parameter,
 ) -> Result<Partial, FitError> {
     let at = |m: &YarnModel| -> Result<(Vec<f64>, nalgebra::Matrix2<f64>), FitError> {
-        let problem = PeriodicTile::new(tile, *m, eq.coarse, eq.pairs.clone())?;
+        let problem = equilibrium_problem(tile, m, eq)?;
         Ok(problem.gradient_and_stress(&eq.dofs)?)
     };
     let mut unit = *model;

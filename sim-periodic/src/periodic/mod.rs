@@ -45,7 +45,7 @@ mod stress;
 
 pub use contacts::ContactPair;
 pub use model::{PeriodicError, YarnModel};
-pub use sensitivity::{Partial, stress_sensitivities};
+pub use sensitivity::{Partial, equilibrium_problem, stress_sensitivities};
 pub use solve::{Equilibrium, EquilibriumSettings, initial_dofs, solve_equilibrium};
 
 use crate::coarse::Coarse;

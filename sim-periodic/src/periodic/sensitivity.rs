@@ -92,10 +92,11 @@ impl PeriodicTile<'_> {
             let (g, h) = (&mut g[..nl], &mut h[..nl * nl]);
             h.fill(0.0);
             self.terms.eval_stencil(k, x, g, Some(&mut h[..]));
-            let ys: Vec<Vector3<f64>> = self.points[k]
-                .iter()
-                .map(|&(v, shift)| self.tile.positions[v] + self.tile.period_offset(shift))
-                .collect();
+            let mut ys = [Vector3::zeros(); MAX_TERM_DOFS / 3];
+            let ys = &mut ys[..self.points[k].len()];
+            for (y, &(v, shift)) in ys.iter_mut().zip(&self.points[k]) {
+                *y = self.tile.positions[v] + self.tile.period_offset(shift);
+            }
             for (direction, (hd, dp)) in directions.iter().zip(&mut out) {
                 let w = &mut w[..nl];
                 w.fill(0.0);
@@ -143,26 +144,34 @@ impl PeriodicTile<'_> {
     }
 }
 
-/// Total derivatives `dP/dθ` (N/m per unit `θ`) of the gathered stress at the equilibrium
-/// `eq` of `tile` under `model`, one per [`Partial`] (module documentation). Flat coarse maps
-/// only; errors with the solver's `NotAStrictMinimum` when `eq` is not a strict constrained
-/// minimum.
-pub fn stress_sensitivities(
-    tile: &Tile,
+/// The problem of the equilibrium `eq` of `tile` under `model` (its coarse map and contact
+/// pairs), for [`PeriodicTile::coarse_partial`] and [`stress_sensitivities`].
+pub fn equilibrium_problem<'t>(
+    tile: &'t Tile,
     model: &YarnModel,
     eq: &Equilibrium,
+) -> Result<PeriodicTile<'t>, PeriodicError> {
+    PeriodicTile::new(tile, *model, eq.coarse, eq.pairs.clone())
+}
+
+/// Total derivatives `dP/dθ` (N/m per unit `θ`) of the gathered stress at the equilibrium
+/// DOFs `x` of `problem` ([`equilibrium_problem`]), one per [`Partial`] (module
+/// documentation). Flat coarse maps only; errors with the solver's `NotAStrictMinimum` when
+/// `x` is not a strict constrained minimum.
+pub fn stress_sensitivities(
+    problem: &PeriodicTile<'_>,
+    x: &[f64],
     partials: &[Partial],
 ) -> Result<Vec<Matrix2<f64>>, PeriodicError> {
-    let problem = PeriodicTile::new(tile, *model, eq.coarse, eq.pairs.clone())?;
     let constraints = problem.constraints()?;
-    let mut solver = ConstrainedNewtonSolver::new(&problem, &constraints)?;
+    let mut solver = ConstrainedNewtonSolver::new(problem, &constraints)?;
     let rhs: Vec<Vec<f64>> = partials
         .iter()
         .map(|p| p.gradient.iter().map(|g| -g).collect())
         .collect();
-    let moves = solver.sensitivities(&problem, &eq.dofs, &rhs)?;
+    let moves = solver.sensitivities(problem, x, &rhs)?;
     let directions: Vec<Direction<'_>> = moves.iter().map(|y| Direction::Dofs(y)).collect();
-    let products = problem.hessian_products(&eq.dofs, &directions)?;
+    let products = problem.hessian_products(x, &directions)?;
     Ok(partials
         .iter()
         .zip(products)
