@@ -36,6 +36,12 @@ pub struct CurveSettings {
     pub stress_rel_tol: f64,
     /// Most equilibrium solves per point. Default 30.
     pub max_solves: usize,
+    /// A compression is also accepted once a sign change of `σ_c` is bracketed to this width
+    /// (unitless): where the tile snaps between equilibria, `σ_c` jumps across zero and has
+    /// no root, and the bracket locates the jump. The point's `sigma_c` is then the stress
+    /// on one side of it. Default `1e-7`, far below the accuracy of measured compressions
+    /// (10⁻³).
+    pub compression_tol: f64,
 }
 
 impl Default for CurveSettings {
@@ -45,6 +51,7 @@ impl Default for CurveSettings {
             stress_abs_tol: 1e-8,
             stress_rel_tol: 1e-6,
             max_solves: 30,
+            compression_tol: 1e-7,
         }
     }
 }
@@ -230,6 +237,7 @@ fn root_find(
         upper: 0.95,
         max_iterations: settings.max_solves,
         max_retries: 4,
+        x_tol: settings.compression_tol,
     };
     let root = match secant(guess, &secant_settings, eval) {
         Ok(root) => root,

@@ -29,6 +29,10 @@ pub struct SecantSettings {
     pub max_iterations: usize,
     /// Retries of a failed evaluation at the midpoint toward the last point.
     pub max_retries: usize,
+    /// Once the two points bracket a sign change, the newest point is also accepted when
+    /// they are at most `x_tol` apart (units of `x`; `0` disables the test): the root is then
+    /// located to `x_tol` even where `f` jumps across zero instead of passing through it.
+    pub x_tol: f64,
 }
 
 /// A root found by [`secant`].
@@ -36,11 +40,12 @@ pub struct SecantSettings {
 pub struct SecantRoot<T> {
     /// The root (units of `x`): the last evaluated point.
     pub x: f64,
-    /// `f` there (within its tolerance of 0).
+    /// `f` there: within its tolerance of 0, or, when the bracket closed to
+    /// [`SecantSettings::x_tol`] first, the value on this side of a jump across zero.
     pub f: f64,
     /// The evaluation's data there.
     pub data: T,
-    /// Secant steps taken (0: the second start point converged).
+    /// Secant steps taken (0: one of the two start points converged).
     pub iterations: usize,
 }
 
@@ -101,8 +106,13 @@ pub enum SecantError<E> {
 ///    increasing one the first secant step turns around by itself).
 /// 2. Each iteration first tests the newest point: converged when `|f(x₁)| ≤ f_tol`, where
 ///    `f_tol` comes with every evaluation ([`SecantEval`]), so it may depend on the point
-///    (e.g. relative to another output of the same evaluation). The start point `x₀` itself
-///    is never accepted: the second point is always evaluated.
+///    (e.g. relative to another output of the same evaluation), or, once the root is
+///    bracketed, when the bracket `|x₁ − x₀|` is at most `x_tol` (a function that jumps
+///    across zero, as an equilibrium's stress where the state snaps to another branch, has
+///    no point within `f_tol`; the bracket then locates the jump). The start point is tested
+///    first: a start within its tolerance is the root, after one evaluation (a good
+///    predictor, or a function that vanishes on a whole interval around the start, where no
+///    second point would pass the test more reliably than the first).
 /// 3. Otherwise the secant point `x₂ = x₁ − f₁ (x₁ − x₀)/(f₁ − f₀)` (`x₁ + first_step` when
 ///    `f₁ = f₀`) is clipped to `|x₂ − x₁| ≤ max_step`, then to `x₂ ≤ upper` and `x₂ ≥ lower`.
 /// 4. An evaluation that fails with [`StepError::Halve`] is retried at the midpoint
@@ -130,6 +140,7 @@ pub fn secant<T, E>(
         upper,
         max_iterations,
         max_retries,
+        x_tol,
     } = *settings;
     if !(first_step.is_finite() && first_step > 0.0 && max_step.is_finite() && max_step > 0.0) {
         return Err(SecantError::InvalidInput(format!(
@@ -147,7 +158,16 @@ pub fn secant<T, E>(
             source: e.into_inner(),
         })
     };
-    let (mut x0, mut f0) = (x0, eval(x0)?.f);
+    let start = eval(x0)?;
+    if start.f.abs() <= start.f_tol {
+        return Ok(SecantRoot {
+            x: x0,
+            f: start.f,
+            data: start.data,
+            iterations: 0,
+        });
+    }
+    let (mut x0, mut f0) = (x0, start.f);
     let mut x1 = x0 + if f0 > 0.0 { first_step } else { -first_step };
     let SecantEval {
         f: mut f1,
@@ -165,7 +185,7 @@ pub fn secant<T, E>(
         bracketed,
     };
     for iteration in 0..max_iterations {
-        if f1.abs() <= tol1 {
+        if f1.abs() <= tol1 || (bracketed && (x1 - x0).abs() <= x_tol) {
             return Ok(SecantRoot {
                 x: x1,
                 f: f1,
@@ -247,6 +267,7 @@ mod tests {
             upper: f64::INFINITY,
             max_iterations: 50,
             max_retries: 4,
+            x_tol: 0.0,
         }
     }
 
@@ -293,7 +314,7 @@ mod tests {
 
     #[test]
     fn tolerance_and_data_come_from_the_evaluation() {
-        // The start point is never accepted: two evaluations at least.
+        // A start within its tolerance is the root, after one evaluation.
         let mut calls = 0;
         let r = secant(0.5, &settings(), |x| {
             calls += 1;
@@ -304,7 +325,47 @@ mod tests {
             })
         })
         .unwrap();
-        assert_eq!((r.x, r.data, r.iterations), (0.49, 2, 0));
+        assert_eq!((r.x, r.data, r.iterations), (0.5, 1, 0));
+        // The tolerance is the evaluation's own: 0.1 at x = 0.3 (f = 0.2, rejected), 0.5 at
+        // the second point x = 0.31 (f = 0.19, accepted).
+        let r = secant(0.3, &settings(), |x| {
+            Ok::<_, StepError<Infallible>>(SecantEval {
+                f: 0.5 - x,
+                f_tol: if x == 0.3 { 0.1 } else { 0.5 },
+                data: x,
+            })
+        })
+        .unwrap();
+        assert_eq!((r.x, r.data, r.iterations), (0.31, 0.31, 0));
+    }
+
+    #[test]
+    fn a_jump_across_zero_is_located_to_the_bracket_tolerance() {
+        // f jumps from −1 to +1 at x = 0.3 and has no root; without `x_tol` the iteration
+        // runs out of steps, with it the bracket closes on the jump.
+        let f = |x: f64| value(if x < 0.3 { -1.0 } else { 1.0 }, 1e-12);
+        assert!(matches!(
+            secant(0.2, &settings(), f),
+            Err(SecantError::NotConverged(_))
+        ));
+        let mut points = vec![];
+        let tol = SecantSettings {
+            x_tol: 1e-9,
+            ..settings()
+        };
+        let r = secant(0.2, &tol, |x| {
+            points.push(x);
+            f(x)
+        })
+        .unwrap();
+        assert!((r.x - 0.3).abs() <= 1e-9, "{r:?}");
+        assert_eq!(r.f.abs(), 1.0);
+        // The bracket test needs a sign change: on a flat function it never fires.
+        let flat = secant(0.2, &tol, |_| value(1.0, 1e-12));
+        assert!(
+            matches!(flat, Err(SecantError::NotConverged(_))),
+            "{points:?}"
+        );
     }
 
     #[test]
