@@ -174,6 +174,8 @@ pub fn all_figures() -> Vec<FigureSpec> {
         persistent_time_vs_error::spec(),
         yarn_fit::spec(),
         yarn_fit_ablations::spec(),
+        cross_method::spec(),
+        closed_loop::spec(),
     ]
 }
 

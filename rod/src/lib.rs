@@ -18,6 +18,7 @@
 //! | [`spd`] | projection of small symmetric Hessians onto the PSD cone | — |
 //! | [`validation`] | circle and helix references with closed-form bending energy | — |
 //! | [`fd`] | the finite-difference derivative-check harness used by every crate | — |
+//! | [`yarn`] | the one yarn description both simulators build their models from, and what carries over between them | — |
 //!
 //! Units: SI throughout (m, N, J, rad). Sign conventions: gradients are `∂W/∂q` (forces are
 //! their negatives).
@@ -35,5 +36,6 @@ pub mod stencil;
 pub mod stretch;
 pub mod twist;
 pub mod validation;
+pub mod yarn;
 
 pub use stencil::{Evaluation, Stencil};

@@ -2,6 +2,8 @@
 
 use rod::bending::Jamming;
 use rod::geometry::V3;
+use rod::stretch::StretchLaw;
+use rod::yarn::YarnMaterial;
 
 /// Which solver gives λ from Eq. 3 ([`crate::forces::compression::CompressionSystem`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -44,6 +46,11 @@ pub struct YarnParams {
     pub linear_density: f64,
     /// Elastic modulus Y (Pa); stretch stiffness `k_s = Y π R²` (N). Table 1: 1e7 Pa.
     pub young_modulus: f64,
+    /// The stiff regime of a bi-phasic stretch law (seed 002 Eq. 5), `(k₂ (N), onset ε̄)`:
+    /// with `Some`, the yarn segments follow `TwoPhase { k₁ = k_s, k₂, ε̄ }` (soft up to the
+    /// onset, stiff beyond it and in compression); `None` (default, seed 000) the linear law.
+    /// The other stiffnesses scaled by `k_s` keep using `k_s`.
+    pub stiffening: Option<(f64, f64)>,
     /// Bending modulus B of Table 1 (1e-3, 3e-4); seed 000 §4.1 sets `k_b = B π R²`. The
     /// paper labels B in Pa, which would make `k_b` a force; we read it so that `k_b` is in
     /// N·m², as Eq. 1 (`V = k_b θ²/Δu`, in J) requires.
@@ -94,6 +101,7 @@ impl YarnParams {
             radius,
             linear_density: 1000.0 * area,
             young_modulus,
+            stiffening: None,
             bending_modulus,
             jamming: Jamming::default(),
             stitch_length_stiffness: young_modulus * area,
@@ -128,6 +136,39 @@ impl YarnParams {
         self.young_modulus * std::f64::consts::PI * self.radius * self.radius
     }
 
+    /// The stretch law of the yarn segments: linear with `k_s`, or bi-phasic with
+    /// [`YarnParams::stiffening`].
+    pub fn stretch_law(&self) -> StretchLaw {
+        let k = self.stretch_stiffness();
+        match self.stiffening {
+            None => StretchLaw::Linear { k },
+            Some((k2, onset)) => StretchLaw::TwoPhase { k1: k, k2, onset },
+        }
+    }
+
+    /// The parameters of the shared yarn description (`rod::yarn`): radius, linear density,
+    /// friction coefficient; `Y = k/(πR²)` from the small-strain stretch stiffness with the
+    /// bi-phasic stiff regime as [`YarnParams::stiffening`]; `B = k_b/(πR²)` (Eq. 1 with
+    /// seed 000's `k_b = B π R²`). The twist stiffness has no counterpart (the persistent yarns
+    /// carry no material frame); every other parameter keeps its default
+    /// ([`YarnParams::new`]), gravity included.
+    pub fn from_material(yarn: &YarnMaterial) -> Result<Self, String> {
+        yarn.validate()?;
+        let area = std::f64::consts::PI * yarn.radius * yarn.radius;
+        let mut params = Self::new(
+            yarn.radius,
+            yarn.small_strain_stiffness() / area,
+            yarn.bending / area,
+        );
+        params.linear_density = yarn.linear_density;
+        params.friction_coefficient = yarn.friction;
+        if let StretchLaw::TwoPhase { k2, onset, .. } = yarn.stretch {
+            params.stiffening = Some((k2, onset));
+        }
+        params.validate()?;
+        Ok(params)
+    }
+
     /// Bending stiffness `k_b = B π R²` (N·m², seed 000 §4.1).
     pub fn bending_stiffness(&self) -> f64 {
         self.bending_modulus * std::f64::consts::PI * self.radius * self.radius
@@ -158,6 +199,13 @@ impl YarnParams {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(format!("{name} must be finite and ≥ 0, got {v}"));
             }
+        }
+        if let Some((k2, onset)) = self.stiffening
+            && !(k2.is_finite() && k2 > 0.0 && onset.is_finite() && onset >= 0.0)
+        {
+            return Err(format!(
+                "stiffening needs k2 > 0 and onset ≥ 0, got k2 = {k2}, onset = {onset}"
+            ));
         }
         let psi0 = self.wrapping_rest_angle;
         if !(psi0.is_finite() && (0.0..std::f64::consts::PI).contains(&psi0)) {

@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! cargo xtask reproduce-figures [--quick] [--only NAME[,NAME]] [--bless]
+//! cargo xtask validate [--quick]
 //! cargo xtask list
 //! ```
 //!
@@ -36,6 +37,14 @@ enum Cmd {
         #[arg(long)]
         bless: bool,
     },
+    /// Cross-method validation: the same yarn through every method (`cross-method`) and the
+    /// closed loop (`closed-loop`), written to reports/ like any figure, with the agreement
+    /// table printed.
+    Validate {
+        /// Small swatches and short ranges: seconds instead of minutes.
+        #[arg(long)]
+        quick: bool,
+    },
     /// List the registered figures.
     List,
 }
@@ -43,6 +52,7 @@ enum Cmd {
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Cmd::ReproduceFigures { quick, only, bless } => reproduce_figures(quick, only, bless),
+        Cmd::Validate { quick } => validate(quick),
         Cmd::List => {
             list();
             Ok(ExitCode::SUCCESS)
@@ -99,6 +109,35 @@ fn reproduce_figures(quick: bool, only: Vec<String>, bless: bool) -> anyhow::Res
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// The figures `cargo xtask validate` runs.
+const VALIDATION_FIGURES: [&str; 2] = ["cross-method", "closed-loop"];
+
+fn validate(quick: bool) -> anyhow::Result<ExitCode> {
+    let code = reproduce_figures(
+        quick,
+        VALIDATION_FIGURES.iter().map(|s| s.to_string()).collect(),
+        false,
+    )?;
+    let reports = workspace_root()?.join("reports");
+    for name in VALIDATION_FIGURES {
+        let manifest = reports.join(name).join("manifest.json");
+        let Ok(text) = std::fs::read_to_string(&manifest) else {
+            continue;
+        };
+        let json: serde_json::Value = serde_json::from_str(&text)
+            .with_context(|| format!("reading {}", manifest.display()))?;
+        println!("\n{name}: agreement");
+        for k in json["key_numbers"].as_array().into_iter().flatten() {
+            println!(
+                "  {}: {}",
+                k["name"].as_str().unwrap_or(""),
+                k["value"].as_str().unwrap_or("")
+            );
+        }
+    }
+    Ok(code)
 }
 
 fn list() {

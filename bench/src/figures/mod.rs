@@ -3,6 +3,8 @@
 //! Each module exposes `pub fn spec() -> FigureSpec`; list it in
 //! [`crate::figure::all_figures`].
 
+pub mod closed_loop;
+pub mod cross_method;
 pub mod deform_bending_db;
 pub mod deform_bending_models;
 pub mod deform_compression_clamping;

@@ -61,6 +61,20 @@ impl YarnModel {
         }
     }
 
+    /// The model of the shared yarn description (`rod::yarn`): its stretch law, bending and
+    /// twist stiffnesses, and the contact phases of [`YarnModel::default_for_radius`] for its
+    /// radius (soft phase at `R₁ = R`, stiff core at `R/4`). Friction and linear density
+    /// have no counterpart: the tile is a frictionless quasi-static equilibrium.
+    pub fn from_material(yarn: &rod::yarn::YarnMaterial) -> Result<Self, String> {
+        yarn.validate()?;
+        Ok(Self {
+            stretch: yarn.stretch,
+            bending: yarn.bending,
+            twist: yarn.twist,
+            ..Self::default_for_radius(yarn.radius)
+        })
+    }
+
     /// Centreline distance (m) below which two edges interact.
     pub fn contact_cutoff(&self) -> f64 {
         2.0 * self.contact[0].radius.max(self.contact[1].radius)

@@ -11,6 +11,7 @@
 //! | [`cycles`] | loading–unloading cycles between side clamps, residual deformation | seed 000 §4.5, Fig. 9 |
 //! | [`drape`] | drape measures: projected-area ratio, corner drop, penetration | seed 000 §5.2.1 |
 //! | [`sphere_drop`] | swatches dropped onto a sphere with sticking contacts until at rest | seed 000 §5.2.1, Fig. 12 |
+//! | [`uniaxial`] | the virtual swatch test: quasi-static clamped uniaxial stretch, force and orthogonal compression | seed 002 §4.3 |
 
 pub mod clamps;
 pub mod cycles;
@@ -18,6 +19,7 @@ pub mod drape;
 pub mod pull;
 pub mod sphere_drop;
 pub mod swatch;
+pub mod uniaxial;
 
 pub use clamps::{ClampSet, Grid, SideClamps};
 pub use cycles::{CycleSample, Cycles, CyclesRun};
@@ -26,3 +28,4 @@ pub use swatch::{
     ALPHA, LOOP_WIDTH, SwatchSettings, centroid, elastic_energies, kind_name, positions, run_steps,
     settled, swatch,
 };
+pub use uniaxial::{Pull, UniaxialRun, UniaxialSample, UniaxialTest};

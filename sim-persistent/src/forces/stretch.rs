@@ -7,13 +7,12 @@
 //! (DOFs `(x₀, u₀, x₁, u₁)`); this module only builds it from the yarn parameters.
 
 use crate::params::YarnParams;
-use rod::stretch::{SlidingSegment, StretchLaw};
+use rod::stretch::SlidingSegment;
 
-/// The linear sliding-segment stretch stencil of `params` (`k_s = Y π R²`).
+/// The sliding-segment stretch stencil of `params`: linear with `k_s = Y π R²`, or
+/// bi-phasic ([`YarnParams::stretch_law`]).
 pub fn stretch_stencil(params: &YarnParams) -> SlidingSegment {
     SlidingSegment {
-        law: StretchLaw::Linear {
-            k: params.stretch_stiffness(),
-        },
+        law: params.stretch_law(),
     }
 }

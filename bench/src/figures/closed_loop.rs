@@ -1,0 +1,216 @@
+//! `closed-loop`: the loop seed 002 §9 leaves open, on the stockinette of `cross-method`:
+//!
+//! 1. a `sim-persistent` swatch with known yarn parameters ([`super::cross_method::yarn`]) is
+//!    stretched in weft and warp ([`super::cross_method::persistent_test`]);
+//! 2. the stiffening shell is fitted to its curves (clamped swatch of the same size);
+//! 3. the shell's homogeneous curves are the uniform targets;
+//! 4. the yarn-level parameters are fitted to them (`sim_periodic::fit`, the default swarm
+//!    and Levenberg–Marquardt, on the procedural stockinette);
+//! 5. the recovered parameters are compared with the known ones;
+//! 6. the recovered yarn is stretched again in `sim-persistent` and its curves compared with
+//!    the original's, in the paper's metric (mean absolute stress error relative to the
+//!    largest original stress).
+//!
+//! The periodic model's contact radius and stiffness have no persistent counterpart
+//! (`rod::yarn`): their "known" values are the ones the shared description maps to. The
+//! re-simulated yarn takes the recovered stretch law and bending stiffness; its radius stays
+//! the known one (the persistent layout, and so the swatch's geometry, is built from it).
+
+use anyhow::Context;
+use rod::stretch::StretchLaw;
+use rod::yarn::YarnMaterial;
+use sim_periodic::fit::{Journal, ParameterSpace, TargetPoint, Targets, estimated_radius, fit};
+use sim_periodic::patterns::Pattern;
+use sim_periodic::periodic::YarnModel;
+use sim_persistent::experiment::uniaxial::{Pull, UniaxialRun};
+use yarn_pattern::direction::Direction;
+
+use super::cross_method::{at, persistent_test, shell_curves, yarn};
+use crate::plot::{LineChart, Series, save_side_by_side};
+use crate::{FigureContext, FigureOutput, FigureSpec, Table, percent};
+
+/// Registry entry.
+pub fn spec() -> FigureSpec {
+    FigureSpec {
+        name: "closed-loop",
+        title: "Closed loop: persistent swatch → shell → targets → yarn fit → persistent swatch",
+        shows: "left: stretch stress (N/m) against stretch of the original persistent stockinette swatch (weft, warp), the shell targets derived from it, the fitted periodic yarn model's curves, and the persistent swatch re-simulated with the recovered yarn; right: the recovered parameters over the known ones",
+        paper: "seed 002 §9 names this loop as future work; no published numbers",
+        guarded: true,
+        run,
+    }
+}
+
+fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
+    let pattern = Pattern::Stockinette;
+    let known = yarn();
+    let progress = ctx.progress(4, "swatch, shell, yarn fit, re-simulation");
+    let stretch_all = |y: &YarnMaterial| -> anyhow::Result<Vec<UniaxialRun>> {
+        [Pull::Weft, Pull::Warp]
+            .into_iter()
+            .map(|pull| {
+                let mut test = persistent_test(pattern, pull, ctx.quick)?;
+                let mut params = sim_persistent::params::YarnParams::from_material(y)
+                    .map_err(anyhow::Error::msg)?;
+                params.gravity *= 0.0;
+                test.settings.params = params;
+                test.run()
+                    .with_context(|| format!("persistent swatch, {}", pull.name()))
+            })
+            .collect()
+    };
+    // 1. The original swatch.
+    let original = stretch_all(&known)?;
+    progress.inc(1);
+    // 2-3. Shell and its uniform targets.
+    let (shell, _) = shell_curves("closed-loop stockinette", &original, ctx.quick)?;
+    let mut targets = Targets::default();
+    for (d, (_, uniform)) in &shell {
+        targets.curves.insert(
+            *d,
+            uniform
+                .iter()
+                .map(|&(s, sigma, c)| TargetPoint { s, c, sigma })
+                .collect(),
+        );
+    }
+    progress.inc(1);
+    // 4. The yarn fit.
+    let base = YarnModel::from_material(&known).map_err(anyhow::Error::msg)?;
+    let geometry = pattern.generate(&pattern.default_params(known.radius))?;
+    let r_est = estimated_radius(&geometry, &base)?;
+    let space = ParameterSpace::paper(&base, r_est)?;
+    let settings = super::yarn_fit::settings(ctx.quick);
+    let result = fit(
+        &geometry,
+        &targets,
+        &space,
+        &settings,
+        &Journal::in_memory(),
+        &|_| {},
+    )
+    .context("yarn fit")?;
+    progress.inc(1);
+    // 5. Recovered against known.
+    let known_values: Vec<f64> = space.free.iter().map(|b| b.parameter.get(&base)).collect();
+    let names: Vec<&str> = space.free.iter().map(|b| b.parameter.name()).collect();
+    // 6. Re-simulation with the recovered stretch law and bending.
+    let recovered = YarnMaterial {
+        stretch: result.model.stretch,
+        bending: result.model.bending,
+        twist: result.model.twist,
+        ..known
+    };
+    let again = stretch_all(&recovered)?;
+    progress.inc(1);
+
+    let mut data = Table::new(&["direction", "curve", "s", "sigma_n_per_m", "c"]);
+    let mut chart = LineChart::new("stockinette: original, targets, fit, re-simulated")
+        .x_label("stretch s")
+        .y_label("σ (N/m)");
+    let mut summary = Vec::new();
+    let mut errors = Vec::new();
+    for (orig, re) in original.iter().zip(&again) {
+        let d = match orig.pull {
+            Pull::Weft => Direction::Weft,
+            Pull::Warp => Direction::Warp,
+        };
+        let pts = |r: &UniaxialRun| -> Vec<(f64, f64, f64)> {
+            r.samples
+                .iter()
+                .map(|p| (p.stretch, p.stress, p.compression))
+                .collect()
+        };
+        let (o, r) = (pts(orig), pts(re));
+        let fitted: Vec<(f64, f64, f64)> = result
+            .evaluation
+            .samples
+            .iter()
+            .filter(|p| p.direction == d)
+            .map(|p| (p.target.s, p.sigma, p.c))
+            .collect();
+        let curves = [
+            ("original swatch", o.clone()),
+            ("shell targets", shell[&d].1.clone()),
+            ("yarn fit (periodic)", fitted),
+            ("re-simulated swatch", r.clone()),
+        ];
+        for (ci, (label, curve)) in curves.iter().enumerate() {
+            for &(s, sigma, c) in curve {
+                data.push_row([d.angle().to_degrees(), ci as f64, s, sigma, c]);
+            }
+            chart = chart.series(Series::line_markers(
+                format!("{} {label}", d.name()),
+                curve.iter().map(|p| (p.0, p.1)),
+            ));
+        }
+        // The paper's metric: mean |Δσ| over the samples, relative to the largest original σ.
+        let max = o.iter().map(|p| p.1).fold(0.0, f64::max);
+        let e = o
+            .iter()
+            .skip(1)
+            .map(|&(s, sigma, _)| (at(&r, s).0 - sigma).abs())
+            .sum::<f64>()
+            / (o.len() - 1) as f64
+            / max;
+        errors.push(e);
+        summary.push((
+            format!("re-simulated vs original, {}", d.name()),
+            format!(
+                "{} mean |Δσ| / max σ (σ at the last stretch {:.2} vs {:.2} N/m)",
+                percent(e),
+                r.last().map_or(f64::NAN, |p| p.1),
+                o.last().map_or(f64::NAN, |p| p.1)
+            ),
+        ));
+    }
+    let mut ratios = LineChart::new("recovered / known parameter")
+        .x_label("parameter (k1, onset, k_b, R1, k_c1)")
+        .y_label("ratio");
+    let mut points = Vec::new();
+    for (i, ((name, k), v)) in names
+        .iter()
+        .zip(&known_values)
+        .zip(&result.values)
+        .enumerate()
+    {
+        points.push((i as f64, v / k));
+        summary.push((
+            format!("parameter {name}"),
+            format!("recovered {v:.4e}, known {k:.4e} (ratio {:.3})", v / k),
+        ));
+    }
+    ratios = ratios
+        .series(Series::markers("recovered / known", points))
+        .hline("1", 1.0);
+    save_side_by_side(&chart, &ratios, &ctx.out_dir, ctx.name)?;
+    summary.insert(
+        0,
+        (
+            "yarn fit".into(),
+            format!(
+                "comfort-range error {} against the shell targets, {} + {} evaluations",
+                percent(result.evaluation.comfort_error),
+                result.evaluations[0],
+                result.evaluations[1]
+            ),
+        ),
+    );
+    let stiff = match known.stretch {
+        StretchLaw::TwoPhase { k2, .. } => k2,
+        StretchLaw::Linear { k } => k,
+    };
+    Ok(FigureOutput {
+        summary,
+        config: serde_json::json!({
+            "pattern": "stockinette",
+            "known_yarn": format!("{known:?}"),
+            "fixed_k2_n": stiff,
+            "parameters": names,
+            "known": known_values,
+            "recovered": result.values,
+            "resimulation_errors": errors,
+        }),
+        data,
+    })
+}
