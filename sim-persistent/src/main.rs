@@ -46,6 +46,43 @@ fn main() -> Result<()> {
     }
 }
 
+/// Runs a scene's `[uniaxial]` test and writes `uniaxial.csv` into `out`.
+fn uniaxial(test: &sim_persistent::experiment::UniaxialTest, out: &std::path::Path) -> Result<()> {
+    let run = test.run()?;
+    let mut table = yarn_output::table::Table::new(&[
+        "stretch",
+        "force_n",
+        "stress_n_per_m",
+        "compression",
+        "newton_iterations",
+    ]);
+    for p in &run.samples {
+        table.push_row([
+            p.stretch,
+            p.force,
+            p.stress,
+            p.compression,
+            p.newton_iterations as f64,
+        ]);
+    }
+    let path = out.join("uniaxial.csv");
+    table.write_csv(&path)?;
+    let last = run.samples.last().expect("the first sample always exists");
+    println!(
+        "{} stretch of a {:.1} mm long, {:.1} mm wide swatch ({} DoFs) in {:.1} s: σ = {:.3} N/m, c = {:.3} at s = {:.3} -> {}",
+        run.pull.name(),
+        run.length * 1e3,
+        run.width * 1e3,
+        run.dofs,
+        run.seconds,
+        last.stress,
+        last.compression,
+        last.stretch,
+        path.display()
+    );
+    Ok(())
+}
+
 fn run(path: PathBuf, out: Option<PathBuf>) -> Result<()> {
     let scene = Scene::read(&path)?;
     let out = out.unwrap_or_else(|| {
@@ -55,6 +92,9 @@ fn run(path: PathBuf, out: Option<PathBuf>) -> Result<()> {
         path.with_file_name(format!("{stem}-out"))
     });
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    if let Some(test) = scene.uniaxial_test()? {
+        return uniaxial(&test, &out);
+    }
     let mut run = scene.build()?;
     let (params, ..) = scene.yarn()?;
     let mut writer = FrameWriter::new(&out, &scene.output, params.radius)?;

@@ -377,4 +377,7 @@ fn shipped_scenes_are_valid() {
     let run = scene.build().unwrap();
     assert_eq!(run.sim.topology().crossings.len(), 100);
     assert_eq!(scene.output.formats.len(), 4);
+    let text = include_str!("../scenes/stockinette-uniaxial.toml");
+    let test = parse(text).unwrap().uniaxial_test().unwrap().unwrap();
+    assert_eq!((test.max_stretch, test.steps), (0.3, 15));
 }

@@ -160,3 +160,61 @@ fn the_persistent_weave_stretches_its_yarns_straight() {
         assert!(p.compression.abs() < 1e-6, "{p:?}");
     }
 }
+
+/// A scene's `[uniaxial]` table builds the test; clamps beside it, a bias direction and an
+/// empty load are errors that name the table.
+#[test]
+fn scenes_express_the_swatch_test() {
+    use sim_persistent::scene::Scene;
+    use std::path::Path;
+    let text = |extra: &str| {
+        format!(
+            "steps = 20\n[pattern]\nbuilder = \"garter\"\nwidth = 4\nheight = 4\n\
+             [forces]\ngravity = false\n[uniaxial]\ndirection = \"warp\"\nmax_stretch = 0.1\n\
+             load_steps = 2\n{extra}"
+        )
+    };
+    let scene = Scene::parse(&text(""), Path::new("test.toml")).unwrap();
+    let test = scene.uniaxial_test().unwrap().unwrap();
+    assert_eq!(test.pull, Pull::Warp);
+    assert_eq!((test.max_stretch, test.steps), (0.1, 2));
+    assert!((test.settings.settle_time - 0.02).abs() < 1e-15);
+    let run = test.run().unwrap();
+    assert_eq!(run.samples.len(), 3);
+    let clamped = Scene::parse(
+        &text("[[clamp]]\nedge = \"left\"\n"),
+        Path::new("test.toml"),
+    )
+    .unwrap();
+    let e = clamped.uniaxial_test().unwrap_err().to_string();
+    assert!(e.contains("[uniaxial]") && e.contains("[[clamp]]"), "{e}");
+    let bias = Scene::parse(
+        &text("").replace("\"warp\"", "\"bias\""),
+        Path::new("test.toml"),
+    )
+    .unwrap();
+    let e = bias.uniaxial_test().unwrap_err().to_string();
+    assert!(
+        e.contains("[uniaxial] direction") && e.contains("diagonal"),
+        "{e}"
+    );
+    let empty = Scene::parse(
+        &text("").replace("load_steps = 2", "load_steps = 0"),
+        Path::new("test.toml"),
+    )
+    .unwrap();
+    assert!(
+        empty
+            .uniaxial_test()
+            .unwrap_err()
+            .to_string()
+            .contains("load_steps")
+    );
+    // No [uniaxial]: none.
+    let plain = Scene::parse(
+        "steps = 1\n[pattern]\nbuilder = \"garter\"\nwidth = 4\nheight = 4\n",
+        Path::new("test.toml"),
+    )
+    .unwrap();
+    assert!(plain.uniaxial_test().unwrap().is_none());
+}

@@ -68,6 +68,15 @@
 //!                      # (weaves: "cast-on" is weft 0, "bind-off" the last weft, "left" /
 //!                      # "right" warp 0 / the last warp, `column = i` warp i)
 //!
+//! [uniaxial]           # optional: the virtual swatch test (crate::experiment::uniaxial)
+//!                      # instead of a time-stepped run; no [[clamp]] then (the test
+//!                      # clamps the swatch itself) and `steps` is the damped settle
+//!                      # between the clamps (steps × dt, mass damping α = 10 /s)
+//! direction = "weft"   # "weft" (side clamps) or "warp" (cast-on / bind-off)
+//! max_stretch = 0.4    # largest stretch s
+//! load_steps = 20      # quasi-static load steps; each is a row of uniaxial.csv
+//! settle_free = false  # settle free before clamping (default: clamped flat)
+//!
 //! [output]             # all optional (crate::output::OutputSpec)
 //! formats = ["obj", "ply", "bcc", "png"]   # also "nodes"; default ["obj"]
 //! every = 10           # steps between frames (≥ 1)
@@ -103,6 +112,8 @@ pub use specs::{
 use crate::chart::{Chart, ChartError};
 use crate::experiment::clamps::Grid;
 use crate::experiment::sphere_drop::StickyContacts;
+use crate::experiment::swatch::SwatchSettings;
+use crate::experiment::uniaxial::{Pull, UniaxialTest};
 use crate::forces::ForceSet;
 use crate::forces::obstacle::Obstacle;
 use crate::integrator::{SimError, Simulator, StepSettings};
@@ -205,6 +216,24 @@ pub struct Scene {
     /// exist).
     #[serde(default)]
     pub obstacle: Vec<toml::Spanned<ObstacleSpec>>,
+    /// The virtual swatch test instead of a time-stepped run.
+    #[serde(default)]
+    pub uniaxial: Option<toml::Spanned<UniaxialSpec>>,
+}
+
+/// `[uniaxial]`: the virtual swatch test ([`crate::experiment::uniaxial`]).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct UniaxialSpec {
+    /// `weft` or `warp`.
+    pub direction: String,
+    /// Largest stretch (unitless, > 0).
+    pub max_stretch: f64,
+    /// Quasi-static load steps (≥ 1).
+    pub load_steps: usize,
+    /// Settle free before clamping.
+    #[serde(default)]
+    pub settle_free: bool,
 }
 
 fn default_dt() -> f64 {
@@ -406,17 +435,50 @@ impl Scene {
         ))
     }
 
-    /// The simulator of the scene, with its clamps pinned.
-    pub fn build(&self) -> Result<SceneRun, SceneError> {
-        if self.frame_every() == 0 {
-            return Err(SceneError::Invalid("output_every must be ≥ 1".into()));
+    /// The virtual swatch test of `[uniaxial]`, if the scene has one: the scene's fabric,
+    /// yarn, loop width, force terms and time step, with `steps × dt` of damped settle.
+    pub fn uniaxial_test(&self) -> Result<Option<UniaxialTest>, SceneError> {
+        let Some(spec) = &self.uniaxial else {
+            return Ok(None);
+        };
+        let u = spec.get_ref();
+        if !self.clamp.is_empty() {
+            return Err(SceneError::Invalid(
+                "[uniaxial] clamps the swatch itself: remove the [[clamp]] entries".into(),
+            ));
         }
-        let fabric = self.fabric()?;
-        let (params, loop_width, alpha, beta) = self.yarn()?;
-        let topology = fabric.topology()?;
-        let layout = Layout::new(&topology, &LayoutParams::new(loop_width, params.radius))?;
+        if !(u.max_stretch.is_finite() && u.max_stretch > 0.0) || u.load_steps == 0 {
+            return Err(SceneError::Invalid(format!(
+                "[uniaxial] needs max_stretch > 0 and load_steps ≥ 1, found {} and {}",
+                u.max_stretch, u.load_steps
+            )));
+        }
+        let pull = Pull::parse(&u.direction)
+            .map_err(|e| SceneError::Invalid(format!("[uniaxial] direction: {e}")))?;
+        let (params, loop_width, ..) = self.yarn()?;
+        let settings = SwatchSettings {
+            dt: self.dt,
+            settle_time: self.steps as f64 * self.dt,
+            forces: self.force_set(),
+            friction_return_mapping: self.friction_return_mapping,
+            params,
+            ..SwatchSettings::default()
+        };
+        Ok(Some(UniaxialTest {
+            fabric: self.fabric()?,
+            pull,
+            max_stretch: u.max_stretch,
+            steps: u.load_steps,
+            layout: LayoutParams::new(loop_width, params.radius),
+            settings,
+            settle_free: u.settle_free,
+        }))
+    }
+
+    /// The force terms of `[forces]`.
+    fn force_set(&self) -> ForceSet {
         let f = &self.forces;
-        let forces = ForceSet {
+        ForceSet {
             gravity: f.gravity,
             stretch: f.stretch,
             bending: f.bending,
@@ -427,7 +489,19 @@ impl Scene {
             crossing_shear_params: self.crossing_shear.0,
             loop_contact: f.loop_contact,
             segment_floor: f.segment_floor,
-        };
+        }
+    }
+
+    /// The simulator of the scene, with its clamps pinned.
+    pub fn build(&self) -> Result<SceneRun, SceneError> {
+        if self.frame_every() == 0 {
+            return Err(SceneError::Invalid("output_every must be ≥ 1".into()));
+        }
+        let fabric = self.fabric()?;
+        let (params, loop_width, alpha, beta) = self.yarn()?;
+        let topology = fabric.topology()?;
+        let layout = Layout::new(&topology, &LayoutParams::new(loop_width, params.radius))?;
+        let forces = self.force_set();
         let settings = StepSettings {
             dt: self.dt,
             rayleigh_alpha: alpha,
