@@ -76,12 +76,20 @@ pub fn targets(measurements: &[Measurement], n: usize) -> Vec<Target> {
 /// How the residuals of Eq. 2 are weighted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Weighting {
-    /// The paper's: normalize by the mean measured force / compression of the direction.
+    /// The paper's: normalize by the mean measured force / compression of the direction
+    /// (the compression's at least [`COMPRESSION_FLOOR`]).
     DirectionMean,
     /// Relative residuals `(f_sim − f_i)/f_i`, `(c_sim − c_i)/c_i`: minimizes (the squares
     /// of) exactly the relative errors that are reported.
     Relative,
 }
+
+/// Smallest mean compression a direction is normalized by in [`Weighting::DirectionMean`]
+/// (unitless): a fabric that does not contract (a straight-yarn weave, measured or
+/// simulated) would otherwise weigh its compression residuals by 1/0 and the fit would ignore
+/// the forces. 1 % is below what the shared measurements resolve; the yarn fit floors its
+/// compression normalization the same way.
+pub const COMPRESSION_FLOOR: f64 = 0.01;
 
 /// Largest stiffening rate (`bx`, `by`, `cx`, `cy`) the fit may use (per unit Green strain): `e^{bE}` then
 /// spans `e^{10}` over a Green strain of 0.2.
@@ -496,7 +504,7 @@ fn weights(targets: &[Target], weighting: Weighting) -> Vec<(f64, f64)> {
             let n = same.len() as f64;
             let mf = same.iter().map(|u| u.force.abs()).sum::<f64>() / n;
             let mc = same.iter().map(|u| u.compression.abs()).sum::<f64>() / n;
-            (1.0 / mf.max(1e-12), 1.0 / mc.max(1e-12))
+            (1.0 / mf.max(1e-12), 1.0 / mc.max(COMPRESSION_FLOOR))
         })
         .collect()
 }

@@ -239,3 +239,28 @@ fn real_acrylic_data_is_merged_binned_and_fitted() {
         r.errors.compression_rel_error
     );
 }
+
+/// Data without contraction (a straight-yarn weave, as the persistent swatch of
+/// `cross-method` gives) still fits its forces: the compression normalization is floored at
+/// `COMPRESSION_FLOOR`, so a zero mean compression does not weigh the compression residuals
+/// by 1/0 (before the floor, `cross-method`'s plain-weave shell missed its forces by 3600 %).
+#[test]
+fn data_without_contraction_still_fits_the_forces() {
+    let truth = InPlaneParams::example();
+    let cfg = FitConfig {
+        swatch: coarse(),
+        ..FitConfig::default()
+    };
+    let dirs = [(Direction::Weft, 0.3), (Direction::Warp, 0.3)];
+    let mut targets = virtual_targets(&truth, &dirs, &cfg.swatch);
+    for t in &mut targets {
+        t.compression = 0.0;
+    }
+    let result = fit(&targets, start([0.0; 4]), &cfg, None).unwrap();
+    println!("{:?}", result.errors);
+    assert!(
+        result.errors.force_error < 0.05,
+        "force error {}",
+        result.errors.force_error
+    );
+}
