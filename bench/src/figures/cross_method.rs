@@ -24,6 +24,23 @@
 //! against sliding (a 4 × 4 stockinette diverges at once, measured), so the friction term
 //! stays on: within a load step the sliding coordinates stick to their anchors through the
 //! friction springs, and between steps they slip where the spring force exceeds `μλ`.
+//!
+//! **Where the methods differ, and why** (full run; the causes are tested in
+//! `tests/tests/cross_method.rs` and `sim-persistent/tests/uniaxial.rs`):
+//!
+//! - *Knits: at 30 % stretch the persistent swatch is 4× (stockinette weft) to 1000× (1×1 rib
+//!   warp) stiffer* than the periodic tile. Its layout holds 0.6–0.7× the tile's yarn per stitch (key number "yarn per course
+//!   width"): straight segments between the stitch-contact nodes against the tile's relaxed,
+//!   curved loops. Its courses run taut early, and the stress then follows the yarn's stiff
+//!   stretch regime. Friction, the stitch-length energy and wrapping change it by 14 % at
+//!   most.
+//! - *Plain weave: the persistent swatch is 65× stiffer at 10 %* and does not contract: its
+//!   yarns run straight between persistent crossings, so `σ = ψ'(s)/d` from the first strain
+//!   (tested to 0.1 %), while the tile's crimp interchange takes the first 20 % of stretch.
+//! - *Finite swatch against homogeneous curves*: the fitted shell's clamped and uniform
+//!   curves differ by 5–26 % in stress at 30 % on the knits (the clamps stop the contraction
+//!   near them; not at all on the weave, which does not contract); this is the size of the
+//!   boundary effect on the persistent swatch, which the uniform curve removes.
 
 use std::collections::BTreeMap;
 
@@ -143,19 +160,59 @@ pub fn persistent_test(pattern: Pattern, pull: Pull, quick: bool) -> anyhow::Res
     })
 }
 
+/// Yarn length per unit course width, `(persistent layout, periodic rest tile)`, of a knit
+/// `pattern` (unitless): the yarn of one interior course of the persistent swatch (its
+/// sliding-coordinate span) over the course's width, and the rest lengths of the relaxed,
+/// stress-free tile over its width and its number of courses. A course pulled in weft runs
+/// taut when its yarn is straight; the more yarn per width, the later.
+pub fn yarn_per_course_width(pattern: Pattern) -> anyhow::Result<(f64, f64)> {
+    let n = 10;
+    let (fabric, [w, h]) = persistent_fabric(pattern, n)?;
+    anyhow::ensure!(pattern.is_knit(), "{} is not a knit", pattern.name());
+    let yarn = yarn();
+    let topology = fabric.topology()?;
+    let mut params = LayoutParams::new(w, yarn.radius);
+    params.row_height = h;
+    let layout = sim_persistent::layout::Layout::new(&topology, &params)?;
+    let course = &topology.yarns[n / 2];
+    let u = |p: &sim_persistent::topology::Pass| layout.sliding[p.node][p.slot];
+    let (first, last) = (
+        course.passes.first().context("empty course")?,
+        course.passes.last().context("empty course")?,
+    );
+    let persistent = (u(last) - u(first)) / (n as f64 * w);
+    let tile = rest_tile(pattern)?;
+    let courses = (tile.period[1] / h).round().max(1.0);
+    let periodic = tile.rest_lengths.iter().sum::<f64>() / tile.period[0] / courses;
+    Ok((persistent, periodic))
+}
+
+/// The procedural tile of `pattern` for the shared yarn, relaxed (rest-shape rounds) and
+/// with its period relaxed to zero normal stress.
+fn rest_tile(pattern: Pattern) -> anyhow::Result<yarn_pattern::tile::Tile> {
+    let yarn = yarn();
+    let model = YarnModel::from_material(&yarn).map_err(anyhow::Error::msg)?;
+    let geometry = pattern.generate(&pattern.default_params(yarn.radius))?;
+    let settings = CurveSettings::default();
+    let (tile, _) = relax(&geometry, &model, &RelaxSettings::default())?;
+    Ok(relax_period(&tile, &model, &settings.equilibrium, 1e-6)?.0)
+}
+
 /// The periodic tile's homogeneous curve (σ, c) at `stretches` along `direction`.
 pub fn periodic_curve(
     pattern: Pattern,
     direction: Direction,
     stretches: &[f64],
 ) -> anyhow::Result<Vec<(f64, f64, f64)>> {
-    let yarn = yarn();
-    let model = YarnModel::from_material(&yarn).map_err(anyhow::Error::msg)?;
-    let geometry = pattern.generate(&pattern.default_params(yarn.radius))?;
-    let settings = CurveSettings::default();
-    let (tile, _) = relax(&geometry, &model, &RelaxSettings::default())?;
-    let (tile, _) = relax_period(&tile, &model, &settings.equilibrium, 1e-6)?;
-    let points = uniaxial_curve(&tile, &model, direction, stretches, &settings)?;
+    let model = YarnModel::from_material(&yarn()).map_err(anyhow::Error::msg)?;
+    let tile = rest_tile(pattern)?;
+    let points = uniaxial_curve(
+        &tile,
+        &model,
+        direction,
+        stretches,
+        &CurveSettings::default(),
+    )?;
     Ok(points.iter().map(|p| (p.s, p.sigma_s, p.c)).collect())
 }
 
@@ -299,6 +356,16 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 crate::percent(shell_error)
             ),
         ));
+        if pattern.is_knit() {
+            let (persistent, periodic) = yarn_per_course_width(pattern)?;
+            summary.push((
+                format!("{name} yarn per course width"),
+                format!(
+                    "persistent layout {persistent:.3}, periodic rest tile {periodic:.3} (tile / persistent {:.2})",
+                    periodic / persistent
+                ),
+            ));
+        }
         for run in &runs {
             let d = direction_of(run.pull);
             let persistent: Vec<(f64, f64, f64)> = run
