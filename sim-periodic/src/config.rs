@@ -404,6 +404,7 @@ impl Config {
 /// local = "levenberg-marquardt" # or "cobyla" (the paper's)
 /// local_samples = 20
 /// local_evaluations = 60
+/// local_starts = 1              # Levenberg–Marquardt from this many distinct swarm points
 /// compression_nodes = 3
 /// comfort_stress = 33.333       # N/m: 2 N on the paper's 6 cm swatch
 /// ```
@@ -468,6 +469,8 @@ pub struct FitOptions {
     pub local_samples: usize,
     /// Most local evaluations (COBYLA) or iterations (Levenberg–Marquardt).
     pub local_evaluations: usize,
+    /// Levenberg–Marquardt starts ([`crate::fit::FitSettings::local_starts`]).
+    pub local_starts: usize,
     /// Compression root-finds per direction.
     pub compression_nodes: usize,
     /// End of the comfort range as a target stress (N/m).
@@ -489,6 +492,7 @@ impl Default for FitOptions {
             local: "levenberg-marquardt".into(),
             local_samples: s.local_objective.samples,
             local_evaluations: s.local_evaluations,
+            local_starts: s.local_starts,
             compression_nodes: s.local_objective.compression_nodes,
             comfort_stress: s.local_objective.comfort_stress,
         }
@@ -576,6 +580,7 @@ impl FitConfig {
             local_objective: objective(f.local_samples),
             local,
             local_evaluations: f.local_evaluations,
+            local_starts: f.local_starts,
             ..FitSettings::default()
         })
     }

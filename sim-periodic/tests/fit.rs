@@ -43,6 +43,7 @@ fn the_fit_recovers_known_parameters_from_their_own_curves() {
         local: LocalMethod::LevenbergMarquardt,
         local_evaluations: 30,
         local_step: 0.1,
+        local_starts: 1,
         local_x_tol: 1e-6,
     };
     let t = std::time::Instant::now();
@@ -152,4 +153,56 @@ fn the_residual_jacobian_matches_central_differences_on_a_frozen_rest_tile() {
         );
         assert!(err < 1e-6, "column {k} off by {err:e}");
     }
+}
+
+/// Levenberg–Marquardt from several distinct swarm points keeps the lowest objective, and
+/// says which start won; no start at all is an error.
+#[test]
+fn several_local_starts_keep_the_best_and_zero_is_an_error() {
+    let geometry = geometry();
+    let base = YarnModel::default_for_radius(1e-3);
+    let r_est = estimated_radius(&geometry, &base).unwrap();
+    let space = ParameterSpace::paper(&base, r_est).unwrap();
+    let truth = space.model(&[0.6, 0.4, 0.5, 0.5, 0.5]);
+    let targets = targets_of(&geometry, &truth, &[(Direction::Weft, 0.3)], 3);
+    let objective = ObjectiveSettings {
+        samples: 3,
+        compression_nodes: 2,
+        ..ObjectiveSettings::default()
+    };
+    let settings = |starts: usize| FitSettings {
+        swarm: Some(sim_periodic::fit::SwarmSettings {
+            particles: 6,
+            iterations: 1,
+            seed: 7,
+        }),
+        swarm_objective: objective.clone(),
+        local_objective: objective.clone(),
+        local_evaluations: 3,
+        local_starts: starts,
+        ..FitSettings::default()
+    };
+    let run = |starts: usize| {
+        fit(
+            &geometry,
+            &targets,
+            &space,
+            &settings(starts),
+            &Journal::in_memory(),
+            &|_| {},
+        )
+    };
+    let one = run(1).unwrap();
+    let two = run(2).unwrap();
+    assert!(two.local_status.contains("of 2"), "{}", two.local_status);
+    assert!(two.evaluations[1] > one.evaluations[1]);
+    // The first start is the single-start run, so two starts never end higher.
+    assert!(
+        two.evaluation.value <= one.evaluation.value,
+        "{} {}",
+        two.evaluation.value,
+        one.evaluation.value
+    );
+    let e = run(0).unwrap_err().to_string();
+    assert!(e.contains("local_starts"), "{e}");
 }

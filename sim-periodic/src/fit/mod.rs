@@ -88,6 +88,10 @@ pub enum FitError {
     NothingEvaluated(usize, String),
 }
 
+/// Smallest ∞-norm distance (normalized coordinates) between two local starts
+/// ([`FitSettings::local_starts`]).
+pub const LOCAL_START_SEPARATION: f64 = 0.25;
+
 /// Settings of the global search.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SwarmSettings {
@@ -128,6 +132,10 @@ pub struct FitSettings {
     pub local_evaluations: usize,
     /// COBYLA's initial step in the normalized box. Default 0.1.
     pub local_step: f64,
+    /// Levenberg–Marquardt after a swarm: runs from the swarm's best and from the next-best
+    /// evaluated points at least [`LOCAL_START_SEPARATION`] from every start before them, up
+    /// to this many starts in all, and keeps the lowest objective. Default 1.
+    pub local_starts: usize,
     /// The local search stops when a step changes every normalized coordinate by less than
     /// this. Default 1e-4.
     pub local_x_tol: f64,
@@ -157,6 +165,7 @@ impl Default for FitSettings {
             local: LocalMethod::LevenbergMarquardt,
             local_evaluations: 60,
             local_step: 0.1,
+            local_starts: 1,
             local_x_tol: 1e-4,
         }
     }
@@ -207,6 +216,8 @@ struct Cost<'a> {
     best: std::sync::Mutex<f64>,
     last_error: std::sync::Mutex<String>,
     progress: &'a (dyn Fn(&Progress) + Sync),
+    /// Every finite evaluation `(x, g)`, for the local starts.
+    seen: std::sync::Mutex<Vec<(Vec<f64>, f64)>>,
 }
 
 impl<'a> Cost<'a> {
@@ -227,7 +238,37 @@ impl<'a> Cost<'a> {
             best: std::sync::Mutex::new(f64::INFINITY),
             last_error: std::sync::Mutex::new(String::new()),
             progress,
+            seen: std::sync::Mutex::new(Vec::new()),
         }
+    }
+
+    /// Up to `k` evaluated points, best first, each at least `separation` (∞-norm, normalized
+    /// coordinates) from the ones before it; ties and order broken by the coordinates' bits,
+    /// so the choice does not depend on the order parallel evaluations finished in.
+    fn distinct_best(&self, k: usize, separation: f64) -> Vec<Vec<f64>> {
+        let mut seen = self.seen.lock().expect("seen lock").clone();
+        let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+        seen.sort_by(|a, b| {
+            a.1.total_cmp(&b.1)
+                .then_with(|| bits(&a.0).cmp(&bits(&b.0)))
+        });
+        let mut chosen: Vec<Vec<f64>> = Vec::new();
+        for (x, _) in seen {
+            if chosen.len() >= k {
+                break;
+            }
+            let far = chosen.iter().all(|c| {
+                c.iter()
+                    .zip(&x)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+                    >= separation
+            });
+            if far {
+                chosen.push(x);
+            }
+        }
+        chosen
     }
 
     /// The objective at `x` (`+∞` when no equilibrium was found), journaled.
@@ -246,7 +287,12 @@ impl<'a> Cost<'a> {
             }
         };
         let value = match result {
-            Ok(v) => v,
+            Ok(v) => {
+                if v.is_finite() {
+                    self.seen.lock().expect("seen lock").push((x.to_vec(), v));
+                }
+                v
+            }
             Err(e) => {
                 self.failed.fetch_add(1, Ordering::Relaxed);
                 *self.last_error.lock().expect("error lock") = e;
@@ -317,6 +363,11 @@ pub fn fit(
             "the local search needs at least one evaluation".into(),
         ));
     }
+    if settings.local_starts == 0 {
+        return Err(FitError::Invalid(
+            "the local search needs at least one start (local_starts ≥ 1)".into(),
+        ));
+    }
     if settings.local == LocalMethod::Cobyla && settings.local_evaluations < n + 2 {
         return Err(FitError::Invalid(format!(
             "COBYLA needs at least n + 2 = {} evaluations, found {}",
@@ -335,7 +386,7 @@ pub fn fit(
     // Global search.
     let mut failed = 0;
     let mut last_error = String::new();
-    let (start, swarm_best, swarm_evaluations) = match &settings.swarm {
+    let (starts, swarm_best, swarm_evaluations) = match &settings.swarm {
         Some(swarm) => {
             if swarm.particles < 2 {
                 return Err(FitError::Invalid(format!(
@@ -368,7 +419,26 @@ pub fn fit(
             if !value.is_finite() {
                 return Err(FitError::NothingEvaluated(count, last_error));
             }
-            (best.clone(), Some((best, value)), count)
+            // The swarm's best first, then the best evaluated points far from it.
+            let mut starts = vec![best.clone()];
+            if settings.local == LocalMethod::LevenbergMarquardt {
+                for x in cost.distinct_best(settings.local_starts, LOCAL_START_SEPARATION) {
+                    if starts.len() >= settings.local_starts {
+                        break;
+                    }
+                    let far = starts.iter().all(|c| {
+                        c.iter()
+                            .zip(&x)
+                            .map(|(a, b)| (a - b).abs())
+                            .fold(0.0, f64::max)
+                            >= LOCAL_START_SEPARATION
+                    });
+                    if far {
+                        starts.push(x);
+                    }
+                }
+            }
+            (starts, Some((best, value)), count)
         }
         None => {
             let start = settings.start.clone().unwrap_or_else(|| vec![0.5; n]);
@@ -377,9 +447,10 @@ pub fn fit(
                     "the local start must have {n} coordinates in [0, 1], found {start:?}"
                 )));
             }
-            (start, None, 0)
+            (vec![start], None, 0)
         }
     };
+    let start = starts[0].clone();
 
     // Local refinement in the normalized box.
     let (x, status, local_evaluations) = match settings.local {
@@ -400,14 +471,32 @@ pub fn fit(
             (x, status, cost.count.load(Ordering::Relaxed))
         }
         LocalMethod::LevenbergMarquardt => {
-            let (x, status, count) = lm_search(
-                &objective(&settings.local_objective),
-                space,
-                &start,
-                settings,
-                progress,
-            )?;
-            (x, status, count)
+            // From every start; the lowest local objective wins (the first on ties).
+            let local = objective(&settings.local_objective);
+            let mut best: Option<(f64, Vec<f64>, String)> = None;
+            let mut total = 0;
+            for (i, s) in starts.iter().enumerate() {
+                let (x, status, count) = lm_search(&local, space, s, settings, progress)?;
+                total += count;
+                let clamped: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
+                let g = match local.evaluate(&space.model(&clamped)) {
+                    Ok(e) => e.value,
+                    Err(e) => {
+                        last_error = e.to_string();
+                        f64::INFINITY
+                    }
+                };
+                let status = if starts.len() > 1 {
+                    format!("start {} of {}: {status}", i + 1, starts.len())
+                } else {
+                    status
+                };
+                if best.as_ref().is_none_or(|b| g < b.0) {
+                    best = Some((g, x, status));
+                }
+            }
+            let (_, x, status) = best.expect("at least one start");
+            (x, status, total)
         }
     };
     let x: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
