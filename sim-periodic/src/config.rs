@@ -392,6 +392,8 @@ impl Config {
 /// [parameters]                  # optional; default: the paper's five with its bounds
 /// k1 = "paper"                  # or explicit bounds [min, max] in SI units
 /// bending = [1e-8, 1e-4]
+/// # k2 = [10.0, 1000.0]         # beyond the paper: free the stiff stretch stiffness too
+///                               # (explicit bounds only; the paper fixes it)
 ///
 /// [fit]
 /// rest_shape = true             # estimate the rest shape for every candidate (§7.2)

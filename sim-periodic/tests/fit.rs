@@ -206,3 +206,36 @@ fn several_local_starts_keep_the_best_and_zero_is_an_error() {
     let e = run(0).unwrap_err().to_string();
     assert!(e.contains("local_starts"), "{e}");
 }
+
+/// `k2` (beyond the paper) is free only when listed, only with the two-phase law, and moves
+/// the model's stiff stiffness.
+#[test]
+fn the_stiff_stretch_stiffness_can_be_freed() {
+    use rod::stretch::StretchLaw;
+    use sim_periodic::fit::{Bound, Parameter};
+    let base = YarnModel::default_for_radius(1e-3);
+    let paper = ParameterSpace::paper(&base, 1e-3).unwrap();
+    assert!(
+        paper
+            .free
+            .iter()
+            .all(|b| b.parameter != Parameter::StretchStiff)
+    );
+    let k2 = Bound {
+        parameter: Parameter::StretchStiff,
+        min: 10.0,
+        max: 1000.0,
+    };
+    let space = ParameterSpace::new(base, vec![k2]).unwrap();
+    let model = space.model(&[0.5]);
+    // Log scale: the middle of [10, 1000] is 100.
+    assert!(matches!(model.stretch, StretchLaw::TwoPhase { k2, .. } if (k2 - 100.0).abs() < 1e-9));
+    let linear = YarnModel {
+        stretch: StretchLaw::Linear { k: 20.0 },
+        ..base
+    };
+    let e = ParameterSpace::new(linear, vec![k2])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("k2") && e.contains("two-phase"), "{e}");
+}

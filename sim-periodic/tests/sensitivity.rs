@@ -109,6 +109,11 @@ fn set(mut model: YarnModel, parameter: Parameter, value: f64) -> YarnModel {
         }
         Parameter::ContactRadius => model.contact[0].radius = value,
         Parameter::ContactStiffness => model.contact[0].stiffness = value,
+        Parameter::StretchStiff => {
+            if let rod::stretch::StretchLaw::TwoPhase { k2, .. } = &mut model.stretch {
+                *k2 = value;
+            }
+        }
     }
     model
 }

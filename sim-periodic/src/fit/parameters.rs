@@ -19,6 +19,9 @@
 //! absolute value depends on the length unit. The twist stiffness, not a parameter of the
 //! paper's isotropic rods, follows the bending stiffness with the base model's ratio `k_t/k_b`.
 //!
+//! Beyond the paper, `k_s2` can be freed too ([`Parameter::StretchStiff`]); the paper's space
+//! keeps it fixed.
+//!
 //! The optimizers see every parameter normalized to `[0, 1]` (log-scaled ones in log space).
 
 use crate::coarse::Coarse;
@@ -42,16 +45,21 @@ pub enum Parameter {
     ContactRadius,
     /// Outer (soft) contact stiffness `k_c1` (J/m²).
     ContactStiffness,
+    /// Stiff stretch stiffness `k_s2` (N) of the two-phase law. **Beyond the paper**, which
+    /// takes it as an input (the stiffest yarn's); not in [`ParameterSpace::paper`], free only
+    /// when listed (the CLI's `[parameters] k2 = [min, max]`).
+    StretchStiff,
 }
 
 impl Parameter {
-    /// All parameters, in the paper's order.
-    pub const ALL: [Parameter; 5] = [
+    /// All parameters: the paper's five in its order, then `k_s2`.
+    pub const ALL: [Parameter; 6] = [
         Parameter::StretchSoft,
         Parameter::Onset,
         Parameter::Bending,
         Parameter::ContactRadius,
         Parameter::ContactStiffness,
+        Parameter::StretchStiff,
     ];
 
     /// The name used in configs and reports.
@@ -62,6 +70,7 @@ impl Parameter {
             Parameter::Bending => "bending",
             Parameter::ContactRadius => "contact_radius",
             Parameter::ContactStiffness => "contact_stiffness",
+            Parameter::StretchStiff => "k2",
         }
     }
 
@@ -74,7 +83,10 @@ impl Parameter {
     pub fn log_scale(self) -> bool {
         matches!(
             self,
-            Parameter::StretchSoft | Parameter::Bending | Parameter::ContactStiffness
+            Parameter::StretchSoft
+                | Parameter::Bending
+                | Parameter::ContactStiffness
+                | Parameter::StretchStiff
         )
     }
 
@@ -92,6 +104,10 @@ impl Parameter {
             Parameter::Bending => model.bending,
             Parameter::ContactRadius => model.contact[0].radius,
             Parameter::ContactStiffness => model.contact[0].stiffness,
+            Parameter::StretchStiff => match model.stretch {
+                StretchLaw::Linear { .. } => 0.0,
+                StretchLaw::TwoPhase { k2, .. } => k2,
+            },
         }
     }
 
@@ -118,6 +134,11 @@ impl Parameter {
             }
             Parameter::ContactRadius => model.contact[0].radius = value,
             Parameter::ContactStiffness => model.contact[0].stiffness = value,
+            Parameter::StretchStiff => {
+                if let StretchLaw::TwoPhase { k2, .. } = &mut model.stretch {
+                    *k2 = value;
+                }
+            }
         }
     }
 }
@@ -216,12 +237,12 @@ impl ParameterSpace {
                     "parameter {name} is listed twice"
                 )));
             }
-            if b.parameter == Parameter::Onset && matches!(base.stretch, StretchLaw::Linear { .. })
+            if matches!(b.parameter, Parameter::Onset | Parameter::StretchStiff)
+                && matches!(base.stretch, StretchLaw::Linear { .. })
             {
-                return Err(FitError::Invalid(
-                    "parameter onset needs the two-phase stretch law (the model's is linear)"
-                        .into(),
-                ));
+                return Err(FitError::Invalid(format!(
+                    "parameter {name} needs the two-phase stretch law (the model's is linear)"
+                )));
             }
         }
         if free.is_empty() {
@@ -313,8 +334,10 @@ pub fn parameter_partial(
         Ok(Partial { gradient, stress })
     };
     match parameter {
-        Parameter::StretchSoft => {
-            Parameter::StretchSoft.set(&mut unit, 1.0);
+        // The energy is linear in k_s1 and k_s2 jointly (Eq. 5), so each partial is the
+        // model with only that stiffness, at 1.
+        Parameter::StretchSoft | Parameter::StretchStiff => {
+            parameter.set(&mut unit, 1.0);
             linear(unit)
         }
         Parameter::Bending => {
