@@ -166,7 +166,8 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     }
     let mut ratios = LineChart::new("recovered / known parameter")
         .x_label("parameter (k1, onset, k_b, R1, k_c1)")
-        .y_label("ratio");
+        .y_label("ratio (log)")
+        .log_y();
     let mut points = Vec::new();
     for (i, ((name, k), v)) in names
         .iter()
