@@ -18,7 +18,7 @@ fn quick(fabric: Fabric, pull: Pull) -> UniaxialTest {
 }
 
 /// A stockinette pulled in weft: the clamp force rises with the stretch, starts near zero
-/// (the swatch was settled free), and the free edges draw in (positive compression).
+/// (the swatch settled between the clamps first), and the free edges draw in (positive compression).
 #[test]
 fn stockinette_weft_pull_stiffens_and_contracts() {
     let chart = Chart::stockinette(6, 6).unwrap();
@@ -210,6 +210,17 @@ fn scenes_express_the_swatch_test() {
             .to_string()
             .contains("load_steps")
     );
+    for (extra, named) in [
+        ("[damping]\nalpha = 5.0\n", "[damping]"),
+        (
+            "[[obstacle]]\nkind = \"sphere\"\ncentre = [0.0, 0.0, -1.0]\nradius = 0.1\n",
+            "[[obstacle]]",
+        ),
+    ] {
+        let scene = Scene::parse(&text(extra), Path::new("test.toml")).unwrap();
+        let e = scene.uniaxial_test().unwrap_err().to_string();
+        assert!(e.contains(named), "{e}");
+    }
     // No [uniaxial]: none.
     let plain = Scene::parse(
         "steps = 1\n[pattern]\nbuilder = \"garter\"\nwidth = 4\nheight = 4\n",

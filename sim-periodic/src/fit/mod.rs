@@ -242,17 +242,18 @@ impl<'a> Cost<'a> {
         }
     }
 
-    /// Up to `k` evaluated points, best first, each at least `separation` (∞-norm, normalized
-    /// coordinates) from the ones before it; ties and order broken by the coordinates' bits,
-    /// so the choice does not depend on the order parallel evaluations finished in.
-    fn distinct_best(&self, k: usize, separation: f64) -> Vec<Vec<f64>> {
+    /// `first`, then evaluated points, best first, each at least `separation` (∞-norm,
+    /// normalized coordinates) from every one before it, up to `k` points in all; ties and
+    /// order broken by the coordinates' bits, so the choice does not depend on the order
+    /// parallel evaluations finished in.
+    fn distinct_best(&self, first: Vec<f64>, k: usize, separation: f64) -> Vec<Vec<f64>> {
         let mut seen = self.seen.lock().expect("seen lock").clone();
         let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
         seen.sort_by(|a, b| {
             a.1.total_cmp(&b.1)
                 .then_with(|| bits(&a.0).cmp(&bits(&b.0)))
         });
-        let mut chosen: Vec<Vec<f64>> = Vec::new();
+        let mut chosen: Vec<Vec<f64>> = vec![first];
         for (x, _) in seen {
             if chosen.len() >= k {
                 break;
@@ -344,8 +345,9 @@ pub fn fingerprint(
 
 /// Fits `space`'s free parameters to `targets` on the input yarn geometry `geometry`: a
 /// particle swarm over the normalized box (unless `settings.swarm` is `None`), then the local
-/// method ([`FitSettings::local`]) from the swarm's best point, then one evaluation of the
-/// result with the local settings. Every swarm and COBYLA evaluation goes through `journal`
+/// method ([`FitSettings::local`]) from the swarm's best point (Levenberg–Marquardt: and from
+/// up to [`FitSettings::local_starts`]` − 1` more distinct swarm points, keeping the lowest
+/// objective), then one evaluation of the result with the local settings. Every swarm and COBYLA evaluation goes through `journal`
 /// (see [`journal`]), so an interrupted fit rerun with the same journal resumes and ends with
 /// the same result; Levenberg–Marquardt evaluations are not journaled (a rerun repeats them,
 /// deterministically).
@@ -420,24 +422,11 @@ pub fn fit(
                 return Err(FitError::NothingEvaluated(count, last_error));
             }
             // The swarm's best first, then the best evaluated points far from it.
-            let mut starts = vec![best.clone()];
-            if settings.local == LocalMethod::LevenbergMarquardt {
-                for x in cost.distinct_best(settings.local_starts, LOCAL_START_SEPARATION) {
-                    if starts.len() >= settings.local_starts {
-                        break;
-                    }
-                    let far = starts.iter().all(|c| {
-                        c.iter()
-                            .zip(&x)
-                            .map(|(a, b)| (a - b).abs())
-                            .fold(0.0, f64::max)
-                            >= LOCAL_START_SEPARATION
-                    });
-                    if far {
-                        starts.push(x);
-                    }
-                }
-            }
+            let starts = if settings.local == LocalMethod::LevenbergMarquardt {
+                cost.distinct_best(best.clone(), settings.local_starts, LOCAL_START_SEPARATION)
+            } else {
+                vec![best.clone()]
+            };
             (starts, Some((best, value)), count)
         }
         None => {
@@ -471,26 +460,37 @@ pub fn fit(
             (x, status, cost.count.load(Ordering::Relaxed))
         }
         LocalMethod::LevenbergMarquardt => {
-            // From every start; the lowest local objective wins (the first on ties).
+            // From every start; the lowest local objective wins (the first on ties). With one
+            // start there is nothing to compare, and the result is evaluated once, below. A
+            // later start whose search fails is skipped (its error kept for the report); the
+            // first start's failure is the fit's.
             let local = objective(&settings.local_objective);
             let mut best: Option<(f64, Vec<f64>, String)> = None;
             let mut total = 0;
             for (i, s) in starts.iter().enumerate() {
-                let (x, status, count) = lm_search(&local, space, s, settings, progress)?;
+                let (x, status, count) = match lm_search(&local, space, s, settings, progress) {
+                    Ok(found) => found,
+                    Err(e) if i > 0 => {
+                        last_error = e.to_string();
+                        continue;
+                    }
+                    Err(e) => return Err(e),
+                };
                 total += count;
+                if starts.len() == 1 {
+                    best = Some((0.0, x, status));
+                    break;
+                }
                 let clamped: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
                 let g = match local.evaluate(&space.model(&clamped)) {
-                    Ok(e) => e.value,
+                    Ok(e) if !e.value.is_nan() => e.value,
+                    Ok(_) => f64::INFINITY,
                     Err(e) => {
                         last_error = e.to_string();
                         f64::INFINITY
                     }
                 };
-                let status = if starts.len() > 1 {
-                    format!("start {} of {}: {status}", i + 1, starts.len())
-                } else {
-                    status
-                };
+                let status = format!("start {} of {}: {status}", i + 1, starts.len());
                 if best.as_ref().is_none_or(|b| g < b.0) {
                     best = Some((g, x, status));
                 }

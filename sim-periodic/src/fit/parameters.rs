@@ -302,8 +302,8 @@ fn denormalize(b: &Bound, t: f64) -> f64 {
 /// The partial derivatives at fixed yarn state of the equilibrium `eq` of `tile` under
 /// `model` with respect to `parameter` (per SI unit of the parameter): of the energy gradient
 /// and of the gathered stress ([`crate::periodic::stress_sensitivities`] turns them into total
-/// derivatives). Exact for `k_s1`, `k_b` (with the twist following it) and `k_c1`, in which the
-/// energy is linear: the gradient and stress of the model with only that stiffness set to 1.
+/// derivatives). Exact for `k_s1`, `k_s2`, `k_b` (with the twist following it) and `k_c1`, in
+/// which the energy is linear: the gradient and stress of the model with only that stiffness set to 1.
 /// Central differences at fixed state (relative step 1e-6) for the onset `Ȳ_s` and the radius
 /// `R₁`, in which it is not; the contact pairs are the equilibrium's throughout.
 pub fn parameter_partial(

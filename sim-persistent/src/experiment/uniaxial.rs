@@ -204,12 +204,13 @@ impl UniaxialTest {
         // Two interior lines along the pull, a quarter of the way in from either free edge:
         // a free edge curls (stockinette rolls up), so it does not measure the fabric's width.
         let (count, periods, line) = lines(&self.fabric, self.pull);
-        let a = count / 4;
-        let b = count - 1 - a;
         anyhow::ensure!(
-            b > a,
-            "the swatch needs at least three yarn lines along the pull to measure its width"
+            count >= 4,
+            "the swatch needs at least four yarn lines along the pull to measure its width \
+             away from its free edges, found {count}"
         );
+        let a = (count / 4).max(1);
+        let b = count - 1 - a;
         let lines_between: Vec<Vec<usize>> = (a..=b).map(&line).collect();
         let fixed_nodes = fixed.clone();
         let width_at = |sim: &Simulator| -> anyhow::Result<f64> {
@@ -256,7 +257,7 @@ impl UniaxialTest {
         let width = w0 * periods as f64 / (b - a) as f64;
 
         let per_step = self.max_stretch * length / self.steps as f64;
-        let mut samples = Vec::with_capacity(self.steps + 1);
+        let mut samples = Vec::new();
         let mut sample = |sim: &Simulator, newton_iterations: usize| -> anyhow::Result<()> {
             let p = positions(sim);
             let l = (centroid(&p, &pulled) - centroid(&p, &fixed)).norm();

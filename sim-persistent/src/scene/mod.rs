@@ -447,6 +447,18 @@ impl Scene {
                 "[uniaxial] clamps the swatch itself: remove the [[clamp]] entries".into(),
             ));
         }
+        if !self.obstacle.is_empty() {
+            return Err(SceneError::Invalid(
+                "[uniaxial] has no obstacles: remove the [[obstacle]] entries".into(),
+            ));
+        }
+        if self.damping.alpha.is_some() || self.damping.beta.is_some() {
+            return Err(SceneError::Invalid(
+                "[uniaxial] settles with the swatch experiments' fixed mass damping (α = 10 /s): \
+                 remove [damping]"
+                    .into(),
+            ));
+        }
         if !(u.max_stretch.is_finite() && u.max_stretch > 0.0) || u.load_steps == 0 {
             return Err(SceneError::Invalid(format!(
                 "[uniaxial] needs max_stretch > 0 and load_steps ≥ 1, found {} and {}",
