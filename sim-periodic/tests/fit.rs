@@ -12,16 +12,19 @@ use yarn_pattern::direction::Direction;
 mod common;
 use common::{stockinette_geometry as geometry, targets_of};
 
+/// The paper's five parameters around the default 1 mm model, for `geometry`.
+fn paper_space(geometry: &yarn_pattern::tile::Tile) -> ParameterSpace {
+    let base = YarnModel::default_for_radius(1e-3);
+    let r_est = estimated_radius(geometry, &base).unwrap();
+    ParameterSpace::paper(&base, r_est).unwrap()
+}
+
 #[test]
 fn the_fit_recovers_known_parameters_from_their_own_curves() {
     let geometry = geometry();
-    let base = YarnModel::default_for_radius(1e-3);
-    let r_est = estimated_radius(&geometry, &base).unwrap();
-    let paper = ParameterSpace::paper(&base, r_est).unwrap();
     // All five of the paper's parameters free.
-    let free = paper.free.clone();
+    let space = paper_space(&geometry);
     let truth_x = [0.62, 0.4, 0.55, 0.45, 0.58];
-    let space = ParameterSpace::new(paper.base, free).unwrap();
     let truth = space.model(&truth_x);
     let nodes = 5;
     let targets = targets_of(
@@ -95,9 +98,7 @@ fn the_residual_jacobian_matches_central_differences_on_a_frozen_rest_tile() {
     // (implicit differentiation of every equilibrium, compressions through their
     // zero-orthogonal-stress condition) is its exact derivative.
     let geometry = geometry();
-    let base = YarnModel::default_for_radius(1e-3);
-    let r_est = estimated_radius(&geometry, &base).unwrap();
-    let space = ParameterSpace::paper(&base, r_est).unwrap();
+    let space = paper_space(&geometry);
     let x = [0.55, 0.35, 0.6, 0.5, 0.5];
     let mut tight = EquilibriumSettings::default();
     tight.newton.gradient_abs_tol = 1e-13;
@@ -160,9 +161,7 @@ fn the_residual_jacobian_matches_central_differences_on_a_frozen_rest_tile() {
 #[test]
 fn several_local_starts_keep_the_best_and_zero_is_an_error() {
     let geometry = geometry();
-    let base = YarnModel::default_for_radius(1e-3);
-    let r_est = estimated_radius(&geometry, &base).unwrap();
-    let space = ParameterSpace::paper(&base, r_est).unwrap();
+    let space = paper_space(&geometry);
     let truth = space.model(&[0.6, 0.4, 0.5, 0.5, 0.5]);
     let targets = targets_of(&geometry, &truth, &[(Direction::Weft, 0.3)], 3);
     let objective = ObjectiveSettings {

@@ -323,6 +323,18 @@ impl Assembler {
         (self.hessian.val_mut(), &self.diag_slots)
     }
 
+    /// `max_i |H_ii|` over the free diagonal of the assembled Hessian, or 1 if that is zero or
+    /// not finite: the scale of the solvers' regularizing shifts.
+    pub(crate) fn diagonal_scale(&self) -> f64 {
+        let values = self.hessian.val();
+        let s = self
+            .diag_slots
+            .iter()
+            .map(|&d| values[d].abs())
+            .fold(0.0, f64::max);
+        if s > 0.0 && s.is_finite() { s } else { 1.0 }
+    }
+
     /// The full gradient from the most recent evaluation.
     pub(crate) fn last_gradient(&self) -> &[f64] {
         &self.gradient

@@ -716,23 +716,7 @@ impl ConstrainedNewtonSolver {
         // A positive semidefinite reduced Hessian (a zero-energy mode, e.g. a yarn free to
         // slide) gets the smallest of a few tiny shifts that factorizes: the derivative is
         // then the regularized system's, close to the minimum-norm one.
-        let scale = {
-            let (sym, values) = (h.symbolic(), h.val());
-            let mut scale = 0.0f64;
-            for j in 0..n {
-                let range = sym.col_range(j);
-                for (&i, &v) in sym.row_idx()[range.clone()].iter().zip(&values[range]) {
-                    if i == j {
-                        scale = scale.max(v.abs());
-                    }
-                }
-            }
-            if scale > 0.0 && scale.is_finite() {
-                scale
-            } else {
-                1.0
-            }
-        };
+        let scale = self.assembler.diagonal_scale();
         let mut factorized = Err(String::new());
         for shift in SENSITIVITY_SHIFTS {
             factorized = self.system.factorize(Some(h.val()), shift * scale);

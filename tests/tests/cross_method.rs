@@ -1,7 +1,7 @@
 //! Stated causes of the large disagreements of `cross-method`, tested (the figure itself is
 //! guarded in quick mode by `reference_curves.rs`).
 
-use bench::figures::cross_method::yarn_per_course_width;
+use bench::figures::cross_method::{rest_tile, yarn_per_course_width};
 use sim_periodic::patterns::Pattern;
 
 /// The persistent knits run taut early because their layout holds less yarn per stitch than
@@ -15,7 +15,8 @@ use sim_periodic::patterns::Pattern;
 #[test]
 fn the_periodic_tiles_hold_far_more_yarn_per_stitch() {
     for pattern in [Pattern::Stockinette, Pattern::Garter, Pattern::Rib1x1] {
-        let (persistent, periodic) = yarn_per_course_width(pattern).unwrap();
+        let tile = rest_tile(pattern).unwrap();
+        let (persistent, periodic) = yarn_per_course_width(pattern, &tile).unwrap();
         println!(
             "{}: persistent {persistent:.3}, tile {periodic:.3}",
             pattern.name()

@@ -19,7 +19,7 @@
 use anyhow::Context;
 use rod::stretch::StretchLaw;
 use rod::yarn::YarnMaterial;
-use sim_periodic::fit::{Journal, ParameterSpace, TargetPoint, Targets, estimated_radius, fit};
+use sim_periodic::fit::{Journal, TargetPoint, Targets, fit};
 use sim_periodic::patterns::Pattern;
 use sim_periodic::periodic::YarnModel;
 use sim_persistent::experiment::uniaxial::{Pull, UniaxialRun};
@@ -49,12 +49,8 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         [Pull::Weft, Pull::Warp]
             .into_iter()
             .map(|pull| {
-                let mut test = persistent_test(pattern, pull, ctx.quick)?;
-                let mut params = sim_persistent::params::YarnParams::from_material(y)
-                    .map_err(anyhow::Error::msg)?;
-                params.gravity *= 0.0;
-                test.settings.params = params;
-                test.run()
+                persistent_test(pattern, pull, ctx.quick, y)?
+                    .run()
                     .with_context(|| format!("persistent swatch, {}", pull.name()))
             })
             .collect()
@@ -77,9 +73,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     progress.inc(1);
     // 4. The yarn fit.
     let base = YarnModel::from_material(&known).map_err(anyhow::Error::msg)?;
-    let geometry = pattern.generate(&pattern.default_params(known.radius))?;
-    let r_est = estimated_radius(&geometry, &base)?;
-    let space = ParameterSpace::paper(&base, r_est)?;
+    let (geometry, space) = super::yarn_fit::geometry_and_space(pattern, &base, known.radius)?;
     let settings = super::yarn_fit::settings(ctx.quick);
     let result = fit(
         &geometry,

@@ -139,12 +139,17 @@ pub fn persistent_fabric(pattern: Pattern, n: usize) -> anyhow::Result<(Fabric, 
     Ok((fabric, spacing))
 }
 
-/// The persistent uniaxial test of `pattern` with the shared yarn.
-pub fn persistent_test(pattern: Pattern, pull: Pull, quick: bool) -> anyhow::Result<UniaxialTest> {
+/// The persistent uniaxial test of `pattern` with `yarn` (the layout is the procedural tile's
+/// for the shared yarn's radius, see [`persistent_fabric`]).
+pub fn persistent_test(
+    pattern: Pattern,
+    pull: Pull,
+    quick: bool,
+    yarn: &YarnMaterial,
+) -> anyhow::Result<UniaxialTest> {
     let (n, max_stretch, steps) = sizes(quick);
     let (fabric, [w, h]) = persistent_fabric(pattern, n)?;
-    let yarn = yarn();
-    let mut params = YarnParams::from_material(&yarn).map_err(anyhow::Error::msg)?;
+    let mut params = YarnParams::from_material(yarn).map_err(anyhow::Error::msg)?;
     params.gravity *= 0.0;
     let settings = SwatchSettings {
         params,
@@ -167,8 +172,12 @@ pub fn persistent_test(pattern: Pattern, pull: Pull, quick: bool) -> anyhow::Res
 /// `pattern` (unitless): the yarn of one interior course of the persistent swatch (its
 /// sliding-coordinate span) over the course's width, and the rest lengths of the relaxed,
 /// stress-free tile over its width and its number of courses. A course pulled in weft runs
-/// taut when its yarn is straight; the more yarn per width, the later.
-pub fn yarn_per_course_width(pattern: Pattern) -> anyhow::Result<(f64, f64)> {
+/// taut when its yarn is straight; the more yarn per width, the later. `tile` is the pattern's
+/// [`rest_tile`].
+pub fn yarn_per_course_width(
+    pattern: Pattern,
+    tile: &yarn_pattern::tile::Tile,
+) -> anyhow::Result<(f64, f64)> {
     let n = 10;
     let (fabric, [w, h]) = persistent_fabric(pattern, n)?;
     anyhow::ensure!(pattern.is_knit(), "{} is not a knit", pattern.name());
@@ -184,7 +193,6 @@ pub fn yarn_per_course_width(pattern: Pattern) -> anyhow::Result<(f64, f64)> {
         course.passes.last().context("empty course")?,
     );
     let persistent = (u(last) - u(first)) / (n as f64 * w);
-    let tile = rest_tile(pattern)?;
     let courses = (tile.period[1] / h).round().max(1.0);
     let periodic = tile.rest_lengths.iter().sum::<f64>() / tile.period[0] / courses;
     Ok((persistent, periodic))
@@ -192,7 +200,7 @@ pub fn yarn_per_course_width(pattern: Pattern) -> anyhow::Result<(f64, f64)> {
 
 /// The procedural tile of `pattern` for the shared yarn, relaxed (rest-shape rounds) and
 /// with its period relaxed to zero normal stress.
-fn rest_tile(pattern: Pattern) -> anyhow::Result<yarn_pattern::tile::Tile> {
+pub fn rest_tile(pattern: Pattern) -> anyhow::Result<yarn_pattern::tile::Tile> {
     let yarn = yarn();
     let model = YarnModel::from_material(&yarn).map_err(anyhow::Error::msg)?;
     let geometry = pattern.generate(&pattern.default_params(yarn.radius))?;
@@ -201,16 +209,15 @@ fn rest_tile(pattern: Pattern) -> anyhow::Result<yarn_pattern::tile::Tile> {
     Ok(relax_period(&tile, &model, &settings.equilibrium, 1e-6)?.0)
 }
 
-/// The periodic tile's homogeneous curve (σ, c) at `stretches` along `direction`.
+/// The homogeneous curve (σ, c) of a [`rest_tile`] at `stretches` along `direction`.
 pub fn periodic_curve(
-    pattern: Pattern,
+    tile: &yarn_pattern::tile::Tile,
     direction: Direction,
     stretches: &[f64],
 ) -> anyhow::Result<Vec<(f64, f64, f64)>> {
     let model = YarnModel::from_material(&yarn()).map_err(anyhow::Error::msg)?;
-    let tile = rest_tile(pattern)?;
     let points = uniaxial_curve(
-        &tile,
+        tile,
         &model,
         direction,
         stretches,
@@ -352,7 +359,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     for (fi, &(name, pattern)) in fabrics.iter().enumerate() {
         let mut runs = Vec::new();
         for pull in [Pull::Weft, Pull::Warp] {
-            let run = persistent_test(pattern, pull, ctx.quick)?
+            let run = persistent_test(pattern, pull, ctx.quick, &yarn())?
                 .run_until_failure()
                 .with_context(|| format!("{name} {} persistent swatch", pull.name()))?;
             if let Some(e) = &run.failure {
@@ -372,8 +379,10 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 crate::percent(shell_error)
             ),
         ));
+        // The tile is relaxed once per fabric, for both directions.
+        let tile = rest_tile(pattern).with_context(|| format!("{name} periodic rest tile"))?;
         if pattern.is_knit() {
-            let (persistent, periodic) = yarn_per_course_width(pattern)?;
+            let (persistent, periodic) = yarn_per_course_width(pattern, &tile)?;
             summary.push((
                 format!("{name} yarn per course width"),
                 format!(
@@ -392,7 +401,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             let stretches: Vec<f64> = (0..=steps)
                 .map(|k| max_stretch * k as f64 / steps as f64)
                 .collect();
-            let periodic = periodic_curve(pattern, d, &stretches)
+            let periodic = periodic_curve(&tile, d, &stretches)
                 .with_context(|| format!("{name} {} periodic tile", d.name()))?;
             let (clamped, uniform) = &shell[&d];
             let curves = [&persistent, &periodic, clamped, uniform];

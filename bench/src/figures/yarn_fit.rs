@@ -119,13 +119,17 @@ pub fn shell_targets(fabric: &Fabric, opts: &FabricFitOptions) -> anyhow::Result
     Ok(targets)
 }
 
-/// The input geometry of `pattern` (1 mm yarn) and the paper's parameter space around the
-/// default model.
+/// Yarn radius of the fits (m): the scale of the procedural tiles.
+const RADIUS: f64 = 1e-3;
+
+/// The input geometry of `pattern` for a yarn of radius `radius` (m) and the paper's
+/// parameter space around `base`.
 pub fn geometry_and_space(
     pattern: Pattern,
     base: &YarnModel,
+    radius: f64,
 ) -> anyhow::Result<(Tile, ParameterSpace)> {
-    let geometry = pattern.generate(&pattern.default_params(1e-3))?;
+    let geometry = pattern.generate(&pattern.default_params(radius))?;
     let r_est = estimated_radius(&geometry, base)?;
     let space = ParameterSpace::paper(base, r_est)?;
     Ok((geometry, space))
@@ -161,7 +165,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     if ctx.quick {
         all.retain(|f| f.name == DEVELOPMENT_FABRIC);
     }
-    let base = YarnModel::default_for_radius(1e-3);
+    let base = YarnModel::default_for_radius(RADIUS);
     let settings = settings(ctx.quick);
     let progress = ctx.progress(all.len() as u64, "fabrics");
     let mut fitted = Vec::new();
@@ -170,7 +174,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         let targets = shell_targets(fabric, &opts)?;
         let shell_seconds = t.elapsed().as_secs_f64();
         let pattern = pattern_of(&fabric.name)?;
-        let (geometry, space) = geometry_and_space(pattern, &base)?;
+        let (geometry, space) = geometry_and_space(pattern, &base, RADIUS)?;
         let t = Instant::now();
         let result = fit(
             &geometry,

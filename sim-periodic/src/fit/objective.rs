@@ -56,7 +56,7 @@ use yarn_pattern::tile::Tile;
 
 use super::FitError;
 use super::parameters::{ParameterSpace, parameter_partial};
-use super::targets::{TargetPoint, Targets};
+use super::targets::{TargetPoint, Targets, interpolate};
 
 /// Largest normal coarse stress of the rest state with [`ObjectiveSettings::stress_free_period`],
 /// as a fraction of the comfort stress.
@@ -167,7 +167,10 @@ struct Scales {
 fn scales(curve: &[TargetPoint], comfort_stress: f64) -> Result<Scales, FitError> {
     // The comfort range ends where the target stress first reaches `comfort_stress`
     // (interpolated), or at the curve's end.
-    let mut comfort_s = curve.last().map_or(0.0, |p| p.s);
+    let (Some(first), Some(last)) = (curve.first(), curve.last()) else {
+        return Err(FitError::Invalid("a target curve has no points".into()));
+    };
+    let mut comfort_s = last.s;
     for w in curve.windows(2) {
         if w[1].sigma >= comfort_stress && w[0].sigma < comfort_stress {
             let t = (comfort_stress - w[0].sigma) / (w[1].sigma - w[0].sigma);
@@ -175,18 +178,11 @@ fn scales(curve: &[TargetPoint], comfort_stress: f64) -> Result<Scales, FitError
             break;
         }
     }
-    if curve[0].sigma >= comfort_stress {
-        comfort_s = curve[0].s;
+    if first.sigma >= comfort_stress {
+        comfort_s = first.s;
     }
-    let at = |s: f64| {
-        let k = curve
-            .partition_point(|p| p.s <= s)
-            .clamp(1, curve.len() - 1);
-        let (a, b) = (curve[k - 1], curve[k]);
-        let t = ((s - a.s) / (b.s - a.s)).clamp(0.0, 1.0);
-        (a.sigma + t * (b.sigma - a.sigma), a.c + t * (b.c - a.c))
-    };
-    let (comfort_sigma, comfort_c) = at(comfort_s);
+    let end = interpolate(curve, comfort_s).expect("the curve has points");
+    let (comfort_sigma, comfort_c) = (end.sigma, end.c);
     // The largest values over the comfort range: its curve points and its end.
     let inside = curve.iter().filter(|p| p.s <= comfort_s);
     let stress = inside

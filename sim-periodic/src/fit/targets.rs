@@ -149,23 +149,7 @@ impl Targets {
     /// The target at stretch `s` of direction `d`, linearly interpolated (clamped to the
     /// curve's ends).
     pub fn at(&self, d: Direction, s: f64) -> Option<TargetPoint> {
-        let curve = self.curves.get(&d)?;
-        let first = curve[0];
-        let last = *curve.last()?;
-        if s <= first.s {
-            return Some(TargetPoint { s, ..first });
-        }
-        if s >= last.s {
-            return Some(TargetPoint { s, ..last });
-        }
-        let k = curve.partition_point(|p| p.s <= s);
-        let (a, b) = (curve[k - 1], curve[k]);
-        let t = (s - a.s) / (b.s - a.s);
-        Some(TargetPoint {
-            s,
-            c: a.c + t * (b.c - a.c),
-            sigma: a.sigma + t * (b.sigma - a.sigma),
-        })
+        interpolate(self.curves.get(&d)?, s)
     }
 
     /// Serializes to the CSV format [`Targets::parse`] reads (stretch rows only).
@@ -184,6 +168,27 @@ impl Targets {
         }
         out
     }
+}
+
+/// `curve` (increasing in `s`) linearly interpolated at `s`, held constant beyond its ends;
+/// `None` for an empty curve.
+pub fn interpolate(curve: &[TargetPoint], s: f64) -> Option<TargetPoint> {
+    let first = *curve.first()?;
+    let last = *curve.last()?;
+    if s <= first.s {
+        return Some(TargetPoint { s, ..first });
+    }
+    if s >= last.s {
+        return Some(TargetPoint { s, ..last });
+    }
+    let k = curve.partition_point(|p| p.s <= s);
+    let (a, b) = (curve[k - 1], curve[k]);
+    let t = (s - a.s) / (b.s - a.s);
+    Some(TargetPoint {
+        s,
+        c: a.c + t * (b.c - a.c),
+        sigma: a.sigma + t * (b.sigma - a.sigma),
+    })
 }
 
 #[cfg(test)]

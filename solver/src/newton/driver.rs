@@ -261,7 +261,7 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
         mut residual_checked: bool,
     ) -> Result<Iteration, SolveError> {
         let settings = self.settings;
-        let scale = diagonal_scale(self.asm);
+        let scale = self.asm.diagonal_scale();
         let base = (settings.regularization_initial * scale)
             .max(self.last_mu / settings.regularization_growth);
         let mut failure = (
@@ -507,13 +507,6 @@ fn quadratic_form(asm: &Assembler, dx: &[f64]) -> f64 {
         }
     }
     crate::linalg::symmetric_quadratic_form(asm.hessian(), &v)
-}
-
-/// `max_i |H_ii|` of the assembled Hessian, or 1 if that is zero (the scale of the shift).
-fn diagonal_scale(asm: &mut Assembler) -> f64 {
-    let (values, diag) = asm.hessian_values_and_diagonal();
-    let s = diag.iter().map(|&d| values[d].abs()).fold(0.0, f64::max);
-    if s > 0.0 && s.is_finite() { s } else { 1.0 }
 }
 
 /// `‖v‖∞`.
