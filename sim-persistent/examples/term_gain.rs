@@ -176,6 +176,7 @@ fn term_counts(sim: &Simulator) -> (String, usize) {
                 TermKind::Bending => "bend",
                 TermKind::StitchLength => "len",
                 TermKind::Friction => "fric",
+                TermKind::ParallelFriction => "pfric",
                 TermKind::Wrapping => "wrap",
                 TermKind::CrossingShear => "shear",
                 TermKind::Obstacle => "obst",

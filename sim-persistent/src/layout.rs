@@ -11,6 +11,12 @@
 //! `δ = out_of_plane`: the legs of a knit come from the back through the loop below to the
 //! front. Bind-off nodes (top boundary) lie in the plane.
 //!
+//! Any chart: the loops a row makes are spaced `w` apart and centred on the cast-on, so a
+//! decrease row is narrower and the legs of a decrease lean towards their new loop; the
+//! cells of [`crate::topology::KnitMap`] give each loop its place. Stacked nodes are one
+//! point. Knitted in the round, the same layout is wrapped round a tube whose circumference
+//! is `w` times the loops of each row (front outwards, rows along +y).
+//!
 //! **Weaves.** Crossing `(i, j)` sits at `(i w, j w, 0)`: `w` is the yarn spacing.
 //!
 //! **Sliding coordinates** start as the arc length of the polyline from the yarn's first node
@@ -19,7 +25,7 @@
 //! Nor is stitch wrapping: the stitch contacts start unwrapped (ψ ≈ 0), and the simulator
 //! ramps the wrapping rest angles in ([`crate::forces::wrapping`]).
 
-use crate::topology::{FabricKind, Side, Topology, knit_node};
+use crate::topology::{Construction, FabricKind, KnitMap, Side, Topology};
 use rod::geometry::V3;
 
 /// Geometric parameters of the initial layout (SI units).
@@ -97,30 +103,13 @@ impl Layout {
     pub fn new(topology: &Topology, params: &LayoutParams) -> Result<Self, LayoutError> {
         params.validate()?;
         let positions = match &topology.kind {
-            FabricKind::Knit(chart) => {
-                let (w, h) = (chart.width(), chart.height());
-                let mut pos = vec![V3::zeros(); topology.nodes.len()];
-                let a = 0.5 * params.contact_length * std::f64::consts::FRAC_1_SQRT_2;
-                for b in 0..=h {
-                    for c in 0..w {
-                        let sigma = if b < h {
-                            chart.stitch(b, c).sign()
-                        } else {
-                            0.0
-                        };
-                        let dz = sigma * params.out_of_plane;
-                        let y = b as f64 * params.row_height;
-                        for (side, xc, dir) in [
-                            (Side::Left, (c as f64 + 0.25) * params.loop_width, 1.0),
-                            (Side::Right, (c as f64 + 0.75) * params.loop_width, -1.0),
-                        ] {
-                            pos[knit_node(w, b, c, side, false)] =
-                                V3::new(xc - dir * a, y - a, -dz);
-                            pos[knit_node(w, b, c, side, true)] = V3::new(xc + dir * a, y + a, dz);
-                        }
-                    }
-                }
-                pos
+            FabricKind::Knit(_) => {
+                let Some(map) = &topology.knit else {
+                    return Err(LayoutError::InvalidParams(
+                        "a knit topology without its knit map".into(),
+                    ));
+                };
+                knit_positions(map, params, topology.nodes.len())
             }
             FabricKind::Weave { warps, .. } => (0..topology.nodes.len())
                 .map(|n| {
@@ -149,4 +138,41 @@ impl Layout {
         }
         Ok(Self { positions, sliding })
     }
+}
+
+/// Node positions of a knit (module documentation): flat, or for [`Construction::Round`] on a
+/// tube around the z axis of circumference `loops × w` per row (a cone where the rows shape),
+/// its front outwards, rows along +y.
+fn knit_positions(map: &KnitMap, params: &LayoutParams, n_nodes: usize) -> Vec<V3> {
+    let mut pos = vec![V3::zeros(); n_nodes];
+    let a = 0.5 * params.contact_length * std::f64::consts::FRAC_1_SQRT_2;
+    let round = map.construction == Construction::Round;
+    for (b, cells) in map.boundaries.iter().enumerate() {
+        let y = b as f64 * params.row_height;
+        for cell in cells {
+            let dz = cell.sign * params.out_of_plane;
+            let loops = map.loops_per_row[cell.row] as f64;
+            for (side, xc, dir) in [
+                (Side::Left, (cell.x - 0.25) * params.loop_width, 1.0),
+                (Side::Right, (cell.x + 0.25) * params.loop_width, -1.0),
+            ] {
+                for (hi, p) in [
+                    (false, V3::new(xc - dir * a, y - a, -dz)),
+                    (true, V3::new(xc + dir * a, y + a, dz)),
+                ] {
+                    let p = if round {
+                        // Unroll: x along the circumference, z outwards.
+                        let radius = loops * params.loop_width / std::f64::consts::TAU;
+                        let phi = p.x / (radius + 1e-300);
+                        let r = radius + p.z;
+                        V3::new(r * phi.sin(), p.y, r * phi.cos())
+                    } else {
+                        p
+                    };
+                    pos[cell.nodes[side as usize][hi as usize]] = p;
+                }
+            }
+        }
+    }
+    pos
 }

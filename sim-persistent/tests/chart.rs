@@ -15,7 +15,7 @@ fn builders_have_the_documented_patterns() {
     assert!((0..2).all(|r| s.row(r).iter().all(|&x| x == Stitch::Knit)));
 
     let rib = Chart::rib(7, 2, 2, 1).unwrap();
-    let row: String = rib.row(1).iter().map(|s| s.letter()).collect();
+    let row: String = rib.row(1).iter().map(|s| s.name()).collect();
     assert_eq!(row, "KKPKKPK");
 
     let seed = Chart::seed(3, 2).unwrap();
@@ -59,14 +59,19 @@ fn text_round_trip_and_run_length() {
 #[test]
 fn unknown_token_names_line_and_column() {
     let err = Chart::parse("K4\nK2 X2\n").unwrap_err();
-    assert_eq!(
-        err,
-        ChartError::UnexpectedToken {
-            line: 2,
-            column: 4,
-            token: "X2".into(),
-            expected: "a stitch `K` or `P` with an optional repeat count (e.g. `K3`)",
-        }
+    let ChartError::UnexpectedToken {
+        line,
+        column,
+        token,
+        expected,
+    } = &err
+    else {
+        panic!("{err:?}");
+    };
+    assert_eq!((*line, *column, token.as_str()), (2, 4, "X2"));
+    assert!(
+        expected.contains("K2TOG") && expected.contains("KFB"),
+        "{expected}"
     );
     let msg = err.to_string();
     assert!(
@@ -82,29 +87,111 @@ fn unknown_token_names_line_and_column() {
             ..
         }
     ));
+    // A name that only starts like a stitch: `K2TOGX` is K2TOG followed by garbage.
+    assert!(matches!(
+        Chart::parse("K4\nK2TOGX K2\n").unwrap_err(),
+        ChartError::UnexpectedToken {
+            line: 2,
+            column: 1,
+            ..
+        }
+    ));
 }
 
 #[test]
-fn reserved_stitches_are_rejected_as_unsupported() {
-    for (text, token, column) in [
-        ("K2 YO K\n", "YO", 4),
-        ("K3\nK k2tog\n", "k2tog", 3),
-        ("P SSK P\n", "SSK", 3),
-        ("M1 K2\n", "M1", 1),
-    ] {
-        let err = Chart::parse(text).unwrap_err();
-        let line = text.lines().count();
+fn every_stitch_has_its_documented_counts_and_names() {
+    let table = [
+        ("K", 1, 1, 1.0),
+        ("P", 1, 1, -1.0),
+        ("YO", 0, 1, 0.0),
+        ("SL", 1, 1, 0.0),
+        ("K2TOG", 2, 1, 1.0),
+        ("SSK", 2, 1, 1.0),
+        ("K3TOG", 3, 1, 1.0),
+        ("S2KP", 3, 1, 1.0),
+        ("P2TOG", 2, 1, -1.0),
+        ("SSP", 2, 1, -1.0),
+        ("P3TOG", 3, 1, -1.0),
+        ("S2PP", 3, 1, -1.0),
+        ("M1L", 0, 1, 1.0),
+        ("M1R", 0, 1, 1.0),
+        ("M1LP", 0, 1, -1.0),
+        ("M1RP", 0, 1, -1.0),
+        ("KFB", 1, 2, 1.0),
+        ("PFB", 1, 2, -1.0),
+    ];
+    assert_eq!(table.len(), Stitch::ALL.len());
+    for (&s, (name, consumes, produces, sign)) in Stitch::ALL.iter().zip(table) {
+        assert_eq!(s.name(), name);
         assert_eq!(
-            err,
-            ChartError::Unsupported {
-                line,
-                column,
-                token: token.into()
-            },
-            "{text:?}"
+            (s.consumes(), s.produces(), s.sign()),
+            (consumes, produces, sign),
+            "{name}"
         );
-        assert!(err.to_string().contains("not supported yet"));
+        assert_eq!(s.flipped().flipped(), s);
+        assert_eq!(s.flipped().sign(), -s.sign(), "{name}");
+        let mut order = s.stack_order().to_vec();
+        order.sort_unstable();
+        assert_eq!(order, (0..consumes.max(1)).collect::<Vec<_>>(), "{name}");
     }
+}
+
+#[test]
+fn shaped_and_lace_charts_parse_with_changing_widths() {
+    let text = "K6\nK K2TOG YO K YO SSK\nK2 M1L K2 M1R K2\nKFB K6 PFB\n. . K3TOG S2KP S2PP K . .\n";
+    let chart = Chart::parse(text).unwrap();
+    assert_eq!(chart.height(), 5);
+    let made: Vec<usize> = (0..5).map(|r| chart.loops_made(r)).collect();
+    assert_eq!(made, vec![6, 6, 8, 10, 4]);
+    assert_eq!(chart.row_width(4), 4); // the `.` placeholders are ignored
+    assert!(!chart.is_rectangular());
+    assert!(Chart::rib(4, 3, 1, 1).unwrap().is_rectangular());
+    // Round trip through the text format, lower case and run-length encoded.
+    assert_eq!(Chart::parse(&chart.to_text()).unwrap(), chart);
+    assert_eq!(Chart::parse(&text.to_lowercase()).unwrap(), chart);
+    assert_eq!(
+        Chart::parse("K4\nK2TOG2\n").unwrap().row(1),
+        &[Stitch::K2tog, Stitch::K2tog]
+    );
+}
+
+#[test]
+fn stitch_counts_that_do_not_match_name_line_and_column() {
+    let cases: [(&str, usize, usize, &str); 7] = [
+        // Too few loops worked: the column after the row's last token.
+        ("K3\nK2\n", 2, 3, "works 2 of the 3 loops"),
+        // A stitch that needs more loops than are left.
+        ("K3\nK2TOG K2\n", 2, 7, "only 0 of the 3 loops"),
+        ("K4\nK2 K3TOG\n", 2, 4, "`K3TOG` works 3 loop(s)"),
+        // Increases through the bar need loops on both sides.
+        ("K3\nM1L K3\n", 2, 1, "lifts the bar"),
+        ("K3\nK3 M1R\n", 2, 4, "lifts the bar"),
+        // The first row sits on the cast-on.
+        ("K2 YO K\n", 1, 4, "first row"),
+        // A row of placeholders only.
+        ("K2\n. .\n", 2, 4, "no stitches"),
+    ];
+    for (text, line, column, what) in cases {
+        let err = Chart::parse(text).unwrap_err();
+        match &err {
+            ChartError::StitchCount {
+                line: l,
+                column: c,
+                message,
+            } => {
+                assert_eq!((*l, *c), (line, column), "{text:?}: {err}");
+                assert!(message.contains(what), "{text:?}: {message}");
+            }
+            other => panic!("{text:?}: {other:?}"),
+        }
+        assert!(
+            err.to_string()
+                .starts_with(&format!("line {line}, column {column}:"))
+        );
+    }
+    // Charts built in code are checked too, naming row and stitch.
+    let err = Chart::from_rows(vec![vec![Stitch::Knit; 3], vec![Stitch::K2tog]]).unwrap_err();
+    assert!(err.to_string().contains("row 1"), "{err}");
 }
 
 #[test]
@@ -126,16 +213,14 @@ fn counts_rows_and_empty_charts_are_checked() {
             ..
         }
     ));
-    assert_eq!(
+    assert!(matches!(
         Chart::parse("# rows\nK3\n\n  P2\n").unwrap_err(),
-        ChartError::RaggedRow {
+        ChartError::StitchCount {
             line: 4,
-            column: 3,
-            found: 2,
-            expected: 3,
-            first_line: 2
+            column: 5,
+            ..
         }
-    );
+    ));
     assert_eq!(
         Chart::parse("# nothing\n\n").unwrap_err(),
         ChartError::Empty { line: 3 }

@@ -7,7 +7,7 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 use rod::fd::{FdOptions, assert_stencil_derivatives, check_gradient, check_hessian};
 use sim_persistent::chart::Chart;
-use sim_persistent::forces::friction::{AnchoredSpring, Slip};
+use sim_persistent::forces::friction::{AnchoredSpring, ParallelSpring, Slip};
 use sim_persistent::forces::gravity::Gravity;
 use sim_persistent::forces::quadratic::Quadratic;
 use sim_persistent::forces::segment_floor::SegmentFloor;
@@ -105,6 +105,23 @@ proptest! {
         assert_stencil_derivatives(&s, &pack::<1>(&[&[u]]), L);
     }
 
+    /// Eq. 5 for parallel stacked yarns: the spring on `Δu = u_a − u_b`, sticking or slipping.
+    #[test]
+    fn friction_parallel_pair_eq5(ua in -L..L, ub in -L..L, anchor in -L..L, k in 1.0..1e5f64,
+                                  force in 0.0..1e-2f64, mode in 0..3usize) {
+        let mut s = ParallelSpring::new(k, anchor);
+        s.spring.slip = match mode {
+            0 => None,
+            1 => Some(Slip { direction: 1.0, force }),
+            _ => Some(Slip { direction: -1.0, force }),
+        };
+        assert_stencil_derivatives(&s, &pack::<2>(&[&[ua, ub]]), L);
+        // The energy depends on the difference only (a common slide is free).
+        let shifted = rod::Stencil::energy(&s, &pack::<2>(&[&[ua + 0.3 * L, ub + 0.3 * L]]));
+        let e = rod::Stencil::energy(&s, &pack::<2>(&[&[ua, ub]]));
+        prop_assert!((e - shifted).abs() <= 1e-9 * (1.0 + e.abs()));
+    }
+
     #[test]
     fn stitch_wrapping_eq2(x0 in v3(L), axis in v3(1.0), len in 0.3*L..1.5*L, d4 in v3(1.5 * L), d3 in v3(1.5 * L),
                            rest in -2.0..2.0f64) {
@@ -179,7 +196,7 @@ fn wrapping_pairs_of_a_knit() {
     for sc in &topo.stitch_contacts {
         let yarn_start = sc.column == 0 && sc.side == Side::Left;
         let yarn_end = sc.column == 3 && sc.side == Side::Right;
-        let [first, second] = wrap_pairs(&topo, sc);
+        let [first, second]: [Option<[usize; 4]>; 2] = wrap_pairs(&topo, sc).try_into().unwrap();
         assert_eq!(first.is_none(), yarn_start, "{sc:?}");
         assert_eq!(second.is_none(), yarn_end, "{sc:?}");
         let [q0, q1] = sc.nodes;
@@ -190,13 +207,23 @@ fn wrapping_pairs_of_a_knit() {
         if let Some(p) = first {
             assert_eq!(
                 p,
-                [q0, q1, next(sc.yarns[0], q0, -1), next(sc.yarns[1], q1, 1)]
+                [
+                    q0,
+                    q1,
+                    next(sc.upper.yarn, q0, -1),
+                    next(sc.lower[0].yarn, q1, 1)
+                ]
             );
         }
         if let Some(p) = second {
             assert_eq!(
                 p,
-                [q1, q0, next(sc.yarns[0], q1, 1), next(sc.yarns[1], q0, -1)]
+                [
+                    q1,
+                    q0,
+                    next(sc.upper.yarn, q1, 1),
+                    next(sc.lower[0].yarn, q0, -1)
+                ]
             );
         }
         // Four distinct nodes per pair.
@@ -390,7 +417,7 @@ fn folded_stitches_wrap_with_the_rest_angle_sign() {
     let layout = Layout::new(&topo, &LayoutParams::new(w, 0.75e-3)).unwrap();
     let mut checked = 0;
     for sc in &topo.stitch_contacts {
-        let sigma = sc.stitch.sign();
+        let sigma = sc.sign;
         for nodes in wrap_pairs(&topo, sc).into_iter().flatten() {
             let mut x: Vec<Vector3<f64>> = nodes.iter().map(|&n| layout.positions[n]).collect();
             let flat: [f64; 12] = std::array::from_fn(|k| x[k / 3][k % 3]);

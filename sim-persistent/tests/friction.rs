@@ -364,6 +364,7 @@ fn unsupported_stacks_are_errors() {
                 warps: 2,
                 wefts: 2,
             },
+            knit: None,
         }
     };
     for n_yarns in [3, 2] {

@@ -107,7 +107,7 @@ fn knit_contact_offsets_follow_knit_and_purl_sides() {
     let curves = RenderCurves::new(&topo, &pos, &options(4)).unwrap();
     assert_eq!(topo.stitch_contacts.len(), 2 * 4 * 2);
     for sc in &topo.stitch_contacts {
-        let sigma = sc.stitch.sign();
+        let sigma = sc.sign;
         for &node in &sc.nodes {
             let n = curves.normals.normals[node];
             assert!(n.z > 0.5, "normal {n:?} should face the front (+z)");
@@ -116,7 +116,7 @@ fn knit_contact_offsets_follow_knit_and_purl_sides() {
                 let i = topo.pass_index(node, yarn).unwrap();
                 curves.control_points[yarn][i]
             };
-            let (upper, lower) = (at(sc.yarns[0]), at(sc.yarns[1]));
+            let (upper, lower) = (at(sc.upper.yarn), at(sc.lower[0].yarn));
             assert!((upper - (pos[node] + sigma * R * n)).norm() < 1e-15);
             assert!((lower - (pos[node] - sigma * R * n)).norm() < 1e-15);
             assert!(((upper - lower).norm() - 2.0 * R).abs() < 1e-15);

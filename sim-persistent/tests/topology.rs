@@ -34,8 +34,11 @@ fn knit_counts_follow_section_3_2_2() {
         } else {
             Stitch::Purl
         };
-        assert_eq!(sc.stitch, expected);
-        assert_eq!(sc.yarns, [sc.row, sc.row - 1]);
+        assert_eq!(sc.sign, expected.sign());
+        assert_eq!(sc.upper.yarn, sc.row);
+        assert_eq!(sc.lower.len(), 1);
+        assert_eq!(sc.lower[0].yarn, sc.row - 1);
+        assert!(sc.upper.forward && sc.lower[0].forward);
     }
 }
 

@@ -56,19 +56,22 @@
 //!   weave under tension is then compressed, a slack one is not.
 //! - *Solve.* Eq. 3 for the stack, then Eq. 4 or NNLS
 //!   ([`crate::params::CompressionSettings::solver`]); both are always computed
-//!   ([`NodeCompression`]) so they can be compared. Every node of the current knit and
-//!   weave topologies has two yarns, where the two agree exactly.
-//! - *Slip force* of yarn `i`'s sliding coordinate: `μ (λᵢ₋₁ + λᵢ)`, the Coulomb bound of
-//!   the contacts that press on it (one contact for two yarns) — [`slip_forces`]. The
+//!   ([`NodeCompression`]) so they can be compared. On two-yarn nodes (simple stitches,
+//!   crossings) they agree exactly; they can differ on the stacked nodes of decreases.
+//! - *Stacks.* Knit stacks come from [`Topology::knit_stacks`]: the upper leg in front of the
+//!   heads for a knit-type stitch, behind them for a purl-type one, the heads of a decrease
+//!   in its stacking order; the contact between two stacked heads is *parallel* (§4.4).
+//! - *Slip force* of yarn `i`'s sliding coordinate: `μ (λᵢ₋₁ + λᵢ)` over the non-parallel
+//!   contacts that press on it (one contact for two yarns) — [`slip_forces`]; a parallel
+//!   contact's `μ λᵢ` bounds the pair spring of [`super::friction::ParallelSpring`]. The
 //!   simulator evaluates it *lagged*, at the state at the start of each step
 //!   ([`crate::integrator`]).
 
-use crate::chart::Chart;
 use crate::forces::wrapping::StitchWrap;
 use crate::forces::{Potential, TermKind};
 use crate::params::{CompressionSettings, CompressionSolver};
 use crate::state::{DofMap, gather};
-use crate::topology::{FabricKind, Side, Topology, knit_node};
+use crate::topology::{FabricKind, KnitMap, Side, Topology};
 use nalgebra::{DMatrix, DVector, Matrix3};
 use rod::Stencil;
 use rod::bending::AngleBending;
@@ -196,9 +199,13 @@ impl CompressionSystem {
 pub struct NodeCompression {
     /// Node index.
     pub node: usize,
+    /// The stack back to front as slots: yarn `i` of Eq. 3 is slot `layers[i]`.
+    pub layers: Vec<usize>,
+    /// Per contact `i` (layers `i`, `i + 1`): whether the two yarns are parallel (§4.4).
+    pub parallel: Vec<bool>,
     /// Contact normals `nᵢ` (yarn `i` → `i + 1`, unit).
     pub normals: Vec<V3>,
-    /// Yarn forces `Fᵢ` on the node (N), one per slot.
+    /// Yarn forces `Fᵢ` on the node (N), one per layer.
     pub forces: Vec<V3>,
     /// λ of Eq. 4 (N), one per contact.
     pub closed_form: DVector<f64>,
@@ -215,12 +222,24 @@ impl NodeCompression {
         }
     }
 
-    /// The compression (N) pressing on the yarn of `slot`: `λᵢ₋₁ + λᵢ` (the contacts on
-    /// either side of it in the stack).
+    /// The compression (N) pressing on the yarn of `slot` through its non-parallel contacts:
+    /// `λᵢ₋₁ + λᵢ` over the contacts on either side of its layer `i` that join
+    /// non-parallel yarns (the friction bound of its own spring, §4.4).
     pub fn slot_compression(&self, slot: usize, solver: CompressionSolver) -> f64 {
         let l = self.lambda(solver);
-        let below = if slot > 0 { l[slot - 1] } else { 0.0 };
-        let above = if slot < l.len() { l[slot] } else { 0.0 };
+        let Some(i) = self.layers.iter().position(|&s| s == slot) else {
+            return 0.0;
+        };
+        let below = if i > 0 && !self.parallel[i - 1] {
+            l[i - 1]
+        } else {
+            0.0
+        };
+        let above = if i < l.len() && !self.parallel[i] {
+            l[i]
+        } else {
+            0.0
+        };
         below + above
     }
 }
@@ -234,8 +253,10 @@ struct StackNode {
     /// Material front `(course₊, course₋, wale₊, wale₋)`: node sets whose centroid
     /// differences give the course and wale directions.
     front: [Vec<usize>; 4],
-    /// `+1` if yarn `i + 1` lies in front of yarn `i`, `−1` otherwise (per contact).
-    order: Vec<f64>,
+    /// The stack back to front, as slots.
+    layers: Vec<usize>,
+    /// Per contact: whether its two yarns are parallel.
+    parallel: Vec<bool>,
 }
 
 /// Compression estimation at the stacked nodes of a fabric (module documentation).
@@ -279,26 +300,18 @@ impl CompressionEstimator {
             .iter()
             .map(|n| n.passes.iter().map(|p| (p.yarn, p.index)).collect())
             .collect();
-        // Front/back order per stacked node from the topology.
-        let mut order: Vec<Option<f64>> = vec![None; topology.nodes.len()];
+        // Back-to-front order per stacked node from the topology.
+        let mut order: Vec<Option<(Vec<usize>, Vec<bool>)>> = topology.knit_stacks();
         for c in &topology.crossings {
             let passes = &topology.nodes[c.node].passes;
             // Slot 0 is the weft (yarns 0..wefts), slot 1 the warp.
-            let warp_second = passes.len() == 2 && passes[1].yarn > passes[0].yarn;
-            let sign = if c.warp_over { 1.0 } else { -1.0 };
-            order[c.node] = Some(if warp_second { sign } else { -sign });
-        }
-        for sc in &topology.stitch_contacts {
-            let [upper, _] = sc.yarns;
-            for &n in &sc.nodes {
-                let passes = &topology.nodes[n].passes;
-                if passes.len() != 2 {
-                    continue;
-                }
-                let upper_second = passes[1].yarn == upper;
-                let s = sc.stitch.sign();
-                order[n] = Some(if upper_second { s } else { -s });
-            }
+            let warp_slot = usize::from(passes.len() == 2 && passes[1].yarn > passes[0].yarn);
+            let top = if c.warp_over {
+                warp_slot
+            } else {
+                1 - warp_slot
+            };
+            order[c.node] = Some((vec![top, 1 - top], vec![false]));
         }
         let mut stacks = Vec::new();
         let mut stack_of_node = vec![None; topology.nodes.len()];
@@ -306,17 +319,28 @@ impl CompressionEstimator {
             if node.passes.len() < 2 {
                 continue;
             }
-            if node.passes.len() > 2 {
+            if node.passes.len() > MAX_STACK_CONTACTS + 1 {
                 return bad(format!(
-                    "node {n} stacks {} yarns: no front/back order rule for stacks yet",
-                    node.passes.len()
+                    "node {n} stacks {} yarns, at most {} are supported",
+                    node.passes.len(),
+                    MAX_STACK_CONTACTS + 1
                 ));
             }
-            let Some(o) = order[n] else {
+            let Some((front_to_back, parallel)) = order[n].take() else {
                 return bad(format!(
-                    "node {n} has two yarns but is neither a crossing nor a stitch-contact node"
+                    "node {n} has {} yarns but is neither a crossing nor a stitch-contact node",
+                    node.passes.len()
                 ));
             };
+            if front_to_back.len() != node.passes.len() {
+                return bad(format!(
+                    "node {n}: {} yarn passes but a stack of {}",
+                    node.passes.len(),
+                    front_to_back.len()
+                ));
+            }
+            let layers: Vec<usize> = front_to_back.into_iter().rev().collect();
+            let parallel: Vec<bool> = parallel.into_iter().rev().collect();
             let mut neighbours = Vec::new();
             for p in &node.passes {
                 let list = &yarn_nodes[p.yarn];
@@ -335,7 +359,8 @@ impl CompressionEstimator {
                 node: n,
                 neighbours,
                 front,
-                order: vec![o],
+                layers,
+                parallel,
             });
         }
         Ok(Self {
@@ -397,15 +422,21 @@ impl CompressionEstimator {
                 if nrm.dot(&front) < 0.0 {
                     nrm = -nrm;
                 }
-                st.order[0] * nrm
+                nrm
             })
             .collect();
-        // Crimp offset of (node, slot): yarn i of an n-stack at x + R (2i − n + 1) n̂.
+        // Layer (back to front) of (node, slot).
+        let layer = |n: usize, slot: usize| -> Option<(usize, usize)> {
+            let k = self.stack_of_node[n]?;
+            let i = self.stacks[k].layers.iter().position(|&s| s == slot)?;
+            Some((k, i))
+        };
+        // Crimp offset of (node, slot): layer i of an n-stack at x + R (2i − n + 1) n̂.
         let offset = |n: usize, slot: usize| -> V3 {
-            match self.stack_of_node[n] {
-                Some(k) if settings.crimp_offset => {
+            match layer(n, slot) {
+                Some((k, i)) if settings.crimp_offset => {
                     let m = self.yarn_slots[n].len() as f64;
-                    radius * (2.0 * slot as f64 - m + 1.0) * normals[k]
+                    radius * (2.0 * i as f64 - m + 1.0) * normals[k]
                 }
                 _ => V3::zeros(),
             }
@@ -416,8 +447,8 @@ impl CompressionEstimator {
             .map(|st| vec![V3::zeros(); self.yarn_slots[st.node].len()])
             .collect();
         let mut add = |n: usize, slot: usize, g: V3| {
-            if let Some(k) = self.stack_of_node[n] {
-                forces[k][slot] -= g;
+            if let Some((k, i)) = layer(n, slot) {
+                forces[k][i] -= g;
             }
         };
         let block = |g: &[f64], i: usize| V3::new(g[i], g[i + 1], g[i + 2]);
@@ -482,6 +513,8 @@ impl CompressionEstimator {
                 })?;
                 Ok(NodeCompression {
                     node: st.node,
+                    layers: st.layers.clone(),
+                    parallel: st.parallel.clone(),
                     nnls: sys.nnls(),
                     closed_form,
                     normals,
@@ -505,15 +538,29 @@ pub fn slip_forces(
         for slot in 0..e.forces.len() {
             out[dofs.u(e.node, slot)] = friction_coefficient * e.slot_compression(slot, solver);
         }
+        // A parallel pair's bound at its far coordinate (crate::forces::friction_springs).
+        let front_to_back: Vec<usize> = e.layers.iter().rev().copied().collect();
+        let parallel: Vec<bool> = e.parallel.iter().rev().copied().collect();
+        let (_, pairs) = super::friction_springs(&front_to_back, &parallel);
+        let lambda = e.lambda(solver);
+        for [a, b] in pairs {
+            let (ia, ib) = (layer_of(e, a), layer_of(e, b));
+            out[dofs.u(e.node, b)] = friction_coefficient * lambda[ia.min(ib)];
+        }
     }
     out
+}
+
+/// Layer index of `slot` in a stack.
+fn layer_of(e: &NodeCompression, slot: usize) -> usize {
+    e.layers.iter().position(|&s| s == slot).unwrap_or(0)
 }
 
 /// Node sets `(course₊, course₋, wale₊, wale₋)` of the material front at `node` (module
 /// documentation), or `None` for a topology without a grid.
 fn front_stencil(topology: &Topology, node: usize) -> Option<[Vec<usize>; 4]> {
     match &topology.kind {
-        FabricKind::Knit(chart) => Some(knit_front(chart, node)),
+        FabricKind::Knit(_) => topology.knit.as_ref().map(|m| knit_front(m, node)),
         FabricKind::Weave { warps, wefts, .. } => {
             let (i, j) = (node % warps, node / warps);
             let at = |i: usize, j: usize| vec![j * warps + i];
@@ -527,28 +574,17 @@ fn front_stencil(topology: &Topology, node: usize) -> Option<[Vec<usize>; 4]> {
     }
 }
 
-/// The material front stencil of a knit node `((b w + c) 2 + side) 2 + hi`: course from the
-/// left to the right contact of its column on its boundary, wale from the same contact on
-/// the boundaries below to above (clamped at the cast-on and bind-off).
-fn knit_front(chart: &Chart, node: usize) -> [Vec<usize>; 4] {
-    let (w, h) = (chart.width(), chart.height());
-    let cell = node / 4;
-    let (b, c) = (cell / w, cell % w);
-    let side = if (node / 2).is_multiple_of(2) {
-        Side::Left
-    } else {
-        Side::Right
-    };
-    let contact = |b: usize, side: Side| {
-        vec![
-            knit_node(w, b, c, side, false),
-            knit_node(w, b, c, side, true),
-        ]
-    };
+/// The material front stencil of a knit node: course from the left to the right contact of
+/// its cell, wale from the same contact of the cell below to the cell above along the wale
+/// ([`crate::topology::Cell::up`], `down`; the cell itself at the cast-on and bind-off).
+fn knit_front(map: &KnitMap, node: usize) -> [Vec<usize>; 4] {
+    let (b, c, side, _) = map.sites[node];
+    let contact = |at: (usize, usize), side: Side| map.cell(at).nodes[side as usize].to_vec();
+    let cell = map.cell((b, c));
     [
-        contact(b, Side::Right),
-        contact(b, Side::Left),
-        contact((b + 1).min(h), side),
-        contact(b.saturating_sub(1), side),
+        contact((b, c), Side::Right),
+        contact((b, c), Side::Left),
+        contact(cell.up, side),
+        contact(cell.down, side),
     ]
 }

@@ -62,16 +62,14 @@
 //! ([`crate::forces::compression`], [`crate::integrator`]); a constant `F_max`
 //! ([`crate::params::YarnParams::friction_max_force`]) is still available.
 //!
-//! **Non-parallel stacking only.** Every contact node of the current topologies joins two
-//! yarns with different sliding directions — a weave crossing (warp ⟂ weft), or a knit
-//! stitch-contact node, where the leg of the upper loop and the head of the lower loop
-//! cross (both run through the contact's two nodes, but they wrap around each other there
-//! and leave the contact in different directions) — so each yarn's sliding coordinate
-//! has its own spring ("for non-parallel stacked yarns, friction is modeled using anchored
-//! springs on each yarn's sliding coordinate independently", §4.4). The pair spring of
-//! Eq. 5 on `Δu = uᵢ − uᵢ₊₁` is for parallel stacked yarns, which only stacked stitches
-//! (K2TOG, SSK; reserved in [`crate::chart`], no topology yet) create; it is not
-//! implemented.
+//! **Parallel stacking** ([`ParallelSpring`]). "For parallel stacked yarns […] the sliding
+//! degrees of freedom of both yarns must be involved": the heads of the loops a decrease
+//! stacks (K2TOG, SSK, …; [`crate::topology`]) slide along one axis, and contact `i` between
+//! stacked yarns `i` and `i + 1` gets one anchored spring on `Δuᵢ = uᵢ − uᵢ₊₁` with anchor
+//! `Δūᵢ` (Eq. 5), slipping at `μ λᵢ` of that contact alone. Non-parallel pairs — the upper leg
+//! against a head, a weave crossing — keep one spring per sliding coordinate, slipping at
+//! `μ` times the compression of the coordinate's non-parallel contacts; a stacked head with
+//! only parallel contacts has no spring of its own (it slides with its neighbours).
 
 use nalgebra::{SMatrix, SVector};
 use rod::{Evaluation, Stencil};
@@ -180,6 +178,48 @@ impl Stencil<1> for AnchoredSpring {
             energy: self.energy(q),
             gradient: SVector::<f64, 1>::new(gradient),
             hessian: SMatrix::<f64, 1, 1>::new(hessian),
+        }
+    }
+}
+
+/// Eq. 5 for parallel stacked yarns: an anchored spring on `Δu = u_a − u_b` (DOFs
+/// `[u_a, u_b]`, the yarn nearer the upper leg of the stack first), with the stick/slip rules
+/// of [`AnchoredSpring`] applied to `Δu`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParallelSpring {
+    /// The spring on `Δu` (its anchor is `Δū`, m).
+    pub spring: AnchoredSpring,
+}
+
+impl ParallelSpring {
+    /// A spring of stiffness `stiffness` (N/m) on `Δu` anchored at `anchor` (m).
+    pub fn new(stiffness: f64, anchor: f64) -> Self {
+        Self {
+            spring: AnchoredSpring::new(stiffness, anchor),
+        }
+    }
+
+    /// `Δu = u_a − u_b` at the spring's two coordinates.
+    pub fn delta(ua: f64, ub: f64) -> f64 {
+        ua - ub
+    }
+}
+
+impl Stencil<2> for ParallelSpring {
+    fn energy(&self, q: &SVector<f64, 2>) -> f64 {
+        self.spring
+            .energy(&SVector::<f64, 1>::new(Self::delta(q[0], q[1])))
+    }
+
+    fn eval(&self, q: &SVector<f64, 2>) -> Evaluation<2> {
+        let e = self
+            .spring
+            .eval(&SVector::<f64, 1>::new(Self::delta(q[0], q[1])));
+        let (g, k) = (e.gradient[0], e.hessian[(0, 0)]);
+        Evaluation {
+            energy: e.energy,
+            gradient: SVector::<f64, 2>::new(g, -g),
+            hessian: SMatrix::<f64, 2, 2>::new(k, -k, -k, k),
         }
     }
 }

@@ -19,7 +19,8 @@
 //!
 //! **Persistent candidate pairs** ([`candidate_pairs`]; no collision detection). Knits
 //! only. Along each interior row boundary `b ∈ 1..H` the stitch contacts sit in the order
-//! left leg, right leg of column 0, left leg of column 1, …; two consecutive contacts are
+//! left leg, right leg of column 0, left leg of column 1, … (the cells of
+//! [`crate::topology::KnitMap`]; knitted in the round, the last closes on the first); two consecutive contacts are
 //! the two legs of one loop where they pass through the loop below (left, right contact of
 //! column `c`), or the right leg of loop `c` and the left leg of loop `c + 1` (adjacent
 //! wales). Each of the four pairs of their nodes (`lo`/`hi` × `lo`/`hi`) that is not
@@ -48,7 +49,7 @@
 //! energy with zero gradient and Hessian there (a measure-zero set that Newton does not
 //! reach from a valid state).
 
-use crate::topology::{FabricKind, Side, Topology, knit_node};
+use crate::topology::{Construction, Side, Topology};
 use nalgebra::{Matrix3, SMatrix, SVector};
 use rod::geometry::V3;
 use rod::{Evaluation, Stencil};
@@ -107,10 +108,9 @@ impl Stencil<6> for LoopContact {
 /// The persistent candidate node pairs `(a, b)`, `a < b`, of the module documentation
 /// (knits; none for weaves), in boundary, column, side order.
 pub fn candidate_pairs(topology: &Topology) -> Vec<[usize; 2]> {
-    let FabricKind::Knit(chart) = &topology.kind else {
+    let Some(map) = &topology.knit else {
         return Vec::new();
     };
-    let (w, h) = (chart.width(), chart.height());
     let joined: HashSet<(usize, usize)> = topology
         .segments()
         .map(|(y, i)| {
@@ -119,19 +119,24 @@ pub fn candidate_pairs(topology: &Topology) -> Vec<[usize; 2]> {
             (a.min(b), a.max(b))
         })
         .collect();
+    let round = map.construction == Construction::Round;
     let mut pairs = Vec::new();
-    for b in 1..h {
-        let contacts: Vec<(usize, Side)> = (0..w)
-            .flat_map(|c| [(c, Side::Left), (c, Side::Right)])
+    let mut seen = HashSet::new();
+    let h = map.boundaries.len() - 1;
+    for cells in &map.boundaries[1..h] {
+        let mut contacts: Vec<[usize; 2]> = cells
+            .iter()
+            .flat_map(|c| [c.nodes[Side::Left as usize], c.nodes[Side::Right as usize]])
             .collect();
+        // Round: the last loop of a round is the neighbour of its first.
+        if round && let Some(&first) = contacts.first() {
+            contacts.push(first);
+        }
         for win in contacts.windows(2) {
-            let [(c0, s0), (c1, s1)] = [win[0], win[1]];
-            for hi0 in [false, true] {
-                for hi1 in [false, true] {
-                    let a = knit_node(w, b, c0, s0, hi0);
-                    let z = knit_node(w, b, c1, s1, hi1);
+            for a in win[0] {
+                for z in win[1] {
                     let key = (a.min(z), a.max(z));
-                    if !joined.contains(&key) {
+                    if a != z && !joined.contains(&key) && seen.insert(key) {
                         pairs.push([key.0, key.1]);
                     }
                 }

@@ -40,7 +40,7 @@ use crate::params::YarnParams;
 use crate::state::DofMap;
 use crate::topology::{FabricKind, Topology};
 use crossing_shear::CrossingShearParams;
-use friction::AnchoredSpring;
+use friction::{AnchoredSpring, ParallelSpring};
 use gravity::Gravity;
 use loop_contact::LoopContact;
 use rod::Stencil;
@@ -116,6 +116,8 @@ pub enum TermKind {
     StitchLength,
     /// Sliding friction (anchored springs).
     Friction,
+    /// Sliding friction between parallel stacked yarns (anchored springs on `Δu`, Eq. 5).
+    ParallelFriction,
     /// Stitch wrapping.
     Wrapping,
     /// Crossing shear with jamming (weaves).
@@ -138,7 +140,8 @@ pub enum TermKind {
 ///
 /// The stencil type of each kind: gravity [`Gravity`] (8 DOFs), stretch
 /// [`rod::stretch::SlidingSegment`] (8), bending [`rod::bending::AngleBending`] (12), stitch
-/// length [`StitchLength`] (2), friction [`AnchoredSpring`] (1), wrapping [`StitchWrap`] (12;
+/// length [`StitchLength`] (2), friction [`AnchoredSpring`] (1), parallel friction
+/// [`friction::ParallelSpring`] (2), wrapping [`StitchWrap`] (12;
 /// positions of `q₀, q₁, q₄, q₃`), crossing shear [`crossing_shear::CrossingShear`] (9),
 /// obstacle [`obstacle::ObstacleContact`] (3), loop contact [`LoopContact`] (6), segment
 /// floor [`SegmentFloor`] (2), inertia and damping [`quadratic::Quadratic<N>`] (as the term
@@ -399,18 +402,10 @@ pub fn build_terms(
     }
     if forces.stitch_length && params.stitch_length_stiffness > 0.0 {
         for sc in &topology.stitch_contacts {
-            for &y in &sc.yarns {
-                let slot = |n: usize| {
-                    topology.nodes[n]
-                        .passes
-                        .iter()
-                        .position(|p| p.yarn == y)
-                        .expect("a stitch contact's yarn passes through its nodes")
-                };
-                let d = [
-                    dofs.u(sc.nodes[0], slot(sc.nodes[0])),
-                    dofs.u(sc.nodes[1], slot(sc.nodes[1])),
-                ];
+            for strand in sc.strands() {
+                // The sliding coordinates at q₀ and q₁ in yarn order (arc length increasing).
+                let [a, b] = topology.strand_slots(strand).map(|(n, s)| dofs.u(n, s));
+                let d = if strand.forward { [a, b] } else { [b, a] };
                 let rest_length = q_rest[d[1]] - q_rest[d[0]];
                 let stiffness = params.stitch_length_stiffness;
                 let length = StitchLength {
@@ -456,18 +451,61 @@ pub fn build_terms(
         }
     }
     if forces.friction && params.friction_stiffness > 0.0 {
+        let stacks = topology.knit_stacks();
         for (n, node) in topology.nodes.iter().enumerate() {
             if node.passes.len() < 2 {
                 continue;
             }
-            for (slot, p) in node.passes.iter().enumerate() {
-                if !p.sliding_pinned {
+            // Slots with a non-parallel contact get their own spring (all slots of a weave
+            // crossing or a two-yarn stitch); parallel pairs get one spring on Δu.
+            let (own, pairs) = match &stacks[n] {
+                Some((layers, parallel)) => friction_springs(layers, parallel),
+                None => ((0..node.passes.len()).collect(), Vec::new()),
+            };
+            for slot in own {
+                if !node.passes[slot].sliding_pinned {
                     let d = [dofs.u(n, slot)];
                     let spring = AnchoredSpring::new(params.friction_stiffness, q_rest[d[0]]);
                     terms.push(TermKind::Friction, spring, d);
                 }
             }
+            for [a, b] in pairs {
+                if !(node.passes[a].sliding_pinned && node.passes[b].sliding_pinned) {
+                    let d = [dofs.u(n, a), dofs.u(n, b)];
+                    let anchor = ParallelSpring::delta(q_rest[d[0]], q_rest[d[1]]);
+                    let spring = ParallelSpring::new(params.friction_stiffness, anchor);
+                    terms.push(TermKind::ParallelFriction, spring, d);
+                }
+            }
         }
     }
     terms
+}
+
+/// The friction springs of a stack (layers front to back as slots, `parallel[i]` for the
+/// contact between layers `i` and `i + 1`): the slots with a non-parallel contact, and the
+/// parallel pairs `[near, far]` ordered from the stack's non-parallel end (the upper leg) —
+/// so every far slot is the far end of exactly one pair ([`compression::slip_forces`]).
+pub fn friction_springs(layers: &[usize], parallel: &[bool]) -> (Vec<usize>, Vec<[usize; 2]>) {
+    let own = layers
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| (i > 0 && !parallel[i - 1]) || (i < parallel.len() && !parallel[i]))
+        .map(|(_, &s)| s)
+        .collect();
+    // The upper leg is at one end of the stack: front for knits, back for purls.
+    let upper_first = parallel.first() == Some(&false);
+    let pairs = parallel
+        .iter()
+        .enumerate()
+        .filter(|&(_, &p)| p)
+        .map(|(i, _)| {
+            if upper_first {
+                [layers[i], layers[i + 1]]
+            } else {
+                [layers[i + 1], layers[i]]
+            }
+        })
+        .collect();
+    (own, pairs)
 }

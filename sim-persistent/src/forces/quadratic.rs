@@ -10,7 +10,7 @@
 //!   elastic stencil's Hessian at the start of the step (so damping never adds energy).
 
 use super::crossing_shear::CrossingShear;
-use super::friction::AnchoredSpring;
+use super::friction::{AnchoredSpring, ParallelSpring};
 use super::stitch_length::StitchLength;
 use super::wrapping::StitchWrap;
 use super::{Potential, TermKind};
@@ -152,6 +152,7 @@ impl DampingSource {
             TermKind::CrossingShear => make::<CrossingShear, 9, true>(k, false, d, step),
             TermKind::StitchLength => make::<StitchLength, 2, false>(k, true, d, step),
             TermKind::Friction => make::<AnchoredSpring, 1, false>(k, true, d, step),
+            TermKind::ParallelFriction => make::<ParallelSpring, 2, false>(k, true, d, step),
             _ => return None,
         };
         let form = step.len() - 1;

@@ -287,26 +287,38 @@ pub fn rest_angle_sign(contact: &StitchContact) -> f64 {
         Side::Left => 1.0,
         Side::Right => -1.0,
     };
-    contact.stitch.sign() * side
+    contact.sign.signum() * side
 }
 
-/// The two pairs of opposite segments of a stitch contact as node quadruples
-/// `[q₀, q₁, q₄, q₃]` for [`StitchWrap`] (Fig. 8): the upper yarn's neighbour before `q₀`
-/// with the lower yarn's neighbour after `q₁`, and — the same with the roles of the two
-/// contact nodes swapped — the upper yarn's neighbour after `q₁` with the lower yarn's
-/// neighbour before `q₀`. A pair is `None` where a yarn ends at the contact (the first
-/// pair at the start of a row's yarn, the second at its end).
-pub fn wrap_pairs(topology: &Topology, contact: &StitchContact) -> [Option<[usize; 4]>; 2] {
+/// The pairs of opposite segments of a stitch contact as node quadruples `[q₀, q₁, q₄, q₃]`
+/// for [`StitchWrap`] (Fig. 8), two per head through the contact (§4.2: every pair of yarns
+/// but the parallel ones, i.e. the upper leg with each stacked head): the upper yarn's
+/// neighbour beyond `q₀` with the head's neighbour beyond `q₁`, and — the same with the roles
+/// of the two contact nodes swapped — the upper yarn's neighbour beyond `q₁` with the head's
+/// neighbour beyond `q₀`. "Beyond" is away from the contact along the yarn, whichever way the
+/// yarn runs. A pair is `None` where a yarn ends at the contact.
+pub fn wrap_pairs(topology: &Topology, contact: &StitchContact) -> Vec<Option<[usize; 4]>> {
     let [q0, q1] = contact.nodes;
-    let [upper, lower] = contact.yarns;
-    let neighbour = |yarn: usize, node: usize, offset: isize| -> Option<usize> {
-        let i = topology.pass_index(node, yarn)?;
-        let j = i.checked_add_signed(offset)?;
-        topology.yarns[yarn].passes.get(j).map(|p| p.node)
-    };
+    let up = &contact.upper;
     let pair = |a: usize, b: usize, wa: Option<usize>, wb: Option<usize>| Some([a, b, wa?, wb?]);
-    [
-        pair(q0, q1, neighbour(upper, q0, -1), neighbour(lower, q1, 1)),
-        pair(q1, q0, neighbour(upper, q1, 1), neighbour(lower, q0, -1)),
-    ]
+    contact
+        .lower
+        .iter()
+        .flat_map(|low| {
+            [
+                pair(
+                    q0,
+                    q1,
+                    topology.strand_outer(up, 0),
+                    topology.strand_outer(low, 1),
+                ),
+                pair(
+                    q1,
+                    q0,
+                    topology.strand_outer(up, 1),
+                    topology.strand_outer(low, 0),
+                ),
+            ]
+        })
+        .collect()
 }

@@ -157,7 +157,10 @@ impl Simulator {
             for k in 0..elastic.len() {
                 // Under the return mapping a slipping coordinate feels only the Coulomb
                 // force: a β-damping form of its spring would brake it by β k_f u̇.
-                let friction = elastic.kind(k) == TermKind::Friction;
+                let friction = matches!(
+                    elastic.kind(k),
+                    TermKind::Friction | TermKind::ParallelFriction
+                );
                 if friction && settings.friction_return_mapping > 0 {
                     continue;
                 }
@@ -166,7 +169,8 @@ impl Simulator {
                 ));
             }
         }
-        let has_friction = elastic.count(TermKind::Friction) > 0;
+        let has_friction =
+            elastic.count(TermKind::Friction) > 0 || elastic.count(TermKind::ParallelFriction) > 0;
         let compression = if has_friction && params.friction_max_force.is_none() {
             Some(
                 CompressionEstimator::new(&topology, &dofs)

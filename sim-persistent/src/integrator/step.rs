@@ -4,7 +4,7 @@
 use super::{SimError, Simulator, StepReport};
 use crate::forces::Potential;
 use crate::forces::compression::slip_forces;
-use crate::forces::friction::AnchoredSpring;
+use crate::forces::friction::{AnchoredSpring, ParallelSpring};
 use crate::forces::quadratic::Quadratic;
 use crate::forces::wrapping::StitchWrap;
 use crate::state::{gather, segment_mass_matrix};
@@ -14,19 +14,37 @@ use solver::{Concat, NewtonReport, NewtonSolver, RodTerm, SolveError, StepError}
 /// The return-mapping classification of every friction spring of `terms` at `q`
 /// ([`AnchoredSpring::classify`]); returns how many changed mode.
 fn classify_friction(terms: &mut Potential, q: &[f64], limits: &[f64]) -> usize {
-    terms
+    let own: usize = terms
         .iter_mut_of::<AnchoredSpring, 1>()
         .map(|(_, spring, d)| usize::from(spring.classify(q[d[0]], limits[d[0]])))
-        .sum()
+        .sum();
+    let pairs: usize = terms
+        .iter_mut_of::<ParallelSpring, 2>()
+        .map(|(_, p, d)| {
+            let du = ParallelSpring::delta(q[d[0]], q[d[1]]);
+            usize::from(p.spring.classify(du, limits[d[1]]))
+        })
+        .sum();
+    own + pairs
 }
 
 /// Ends a step at `q` for every friction spring of `terms` ([`AnchoredSpring::finish_step`]);
 /// returns how many slipped.
+/// A parallel pair's slip force is stored at its far coordinate (`d[1]`,
+/// [`crate::forces::compression::slip_forces`]).
 pub(super) fn finish_friction(terms: &mut Potential, q: &[f64], limits: &[f64]) -> usize {
-    terms
+    let own: usize = terms
         .iter_mut_of::<AnchoredSpring, 1>()
         .map(|(_, spring, d)| usize::from(spring.finish_step(q[d[0]], limits[d[0]])))
-        .sum()
+        .sum();
+    let pairs: usize = terms
+        .iter_mut_of::<ParallelSpring, 2>()
+        .map(|(_, p, d)| {
+            let du = ParallelSpring::delta(q[d[0]], q[d[1]]);
+            usize::from(p.spring.finish_step(du, limits[d[1]]))
+        })
+        .sum();
+    own + pairs
 }
 
 impl Simulator {
@@ -107,6 +125,9 @@ impl Simulator {
                 // The step is retried (halved) from the start state: no slip mode stays.
                 for (_, spring, _) in self.elastic.iter_mut_of::<AnchoredSpring, 1>() {
                     spring.slip = None;
+                }
+                for (_, pair, _) in self.elastic.iter_mut_of::<ParallelSpring, 2>() {
+                    pair.spring.slip = None;
                 }
                 return Err(e.into());
             }

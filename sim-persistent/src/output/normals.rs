@@ -238,19 +238,15 @@ pub fn offset_sides(topology: &Topology) -> Vec<Vec<f64>> {
             }
         }
     }
-    let mut set = |node: usize, yarn: usize, k: f64| {
-        if let Some(slots) = topology.nodes.get(node)
-            && slots.passes.len() >= 2
-            && let Some(s) = slots.passes.iter().position(|p| p.yarn == yarn)
+    // Stitch contacts: front to back, `m − 1, m − 3, …, −(m − 1)` (two yarns: ±1).
+    for (node, stack) in topology.knit_stacks().into_iter().enumerate() {
+        if let Some((slots, _)) = stack
+            && slots.len() >= 2
         {
-            sides[node][s] = k;
-        }
-    };
-    for sc in &topology.stitch_contacts {
-        let sigma = sc.stitch.sign();
-        for &node in &sc.nodes {
-            set(node, sc.yarns[0], sigma);
-            set(node, sc.yarns[1], -sigma);
+            let m = slots.len();
+            for (i, s) in slots.into_iter().enumerate() {
+                sides[node][s] = (m - 1) as f64 - 2.0 * i as f64;
+            }
         }
     }
     sides

@@ -16,30 +16,93 @@
 //!   shares 8 nodes, and `N` loops make about `4N` nodes and `20N` DoFs (§3.2.2).
 //! - **Crossings** (weaves, §3.2.1): one node shared by a warp and a weft yarn (5 DoFs).
 //!
-//! **Knit construction.** The chart's loop `(r, c)` sits in row `r`, column `c`. Row-boundary
-//! `b ∈ 0..=H` lies below row `b` (so boundary `b` holds the stitch contacts between the head
-//! of loop `(b − 1, c)` and the legs of loop `(b, c)`). Every boundary has, per column, a left
-//! and a right contact with a `lo` and a `hi` node. Yarn `r` (one yarn per row, left to right)
-//! visits per loop
+//! **Knit construction** ([`knit`]). Row-boundary `b ∈ 0..=H` lies below row `b`; it holds
+//! one cell of four nodes (left and right contact, `lo` and `hi` each) per loop of row `b`
+//! that is pulled through something, and boundary `H` (bind-off) one per loop of the last
+//! row. For a rectangular K/P chart, cell `c` of boundary `b` is column `c` and the nodes are
+//! [`knit_node`]`(w, b, c, side, hi)`; yarn `r` (one yarn per row, left to right) visits per loop
 //!
 //! ```text
 //! (b=r, L, lo) (r, L, hi) (r+1, L, lo) (r+1, L, hi) (r+1, R, hi) (r+1, R, lo) (r, R, hi) (r, R, lo)
 //!  foot ─────── left leg ──────────── head ─────────────────────── right leg ──────── foot
 //! ```
 //!
-//! so both yarns of a contact traverse its two nodes consecutively and in the same order.
-//! Boundary 0 (cast-on) and boundary `H` (bind-off) nodes carry only one yarn. Simplification:
-//! a real knit is one continuous yarn turning back at the row ends (§3.1); here each row is
-//! its own yarn whose ends are tied to the fabric (pinned sliding). The row-end turns are
-//! future work.
+//! Decreases stack the heads of two or three loops in the cell of the new loop: its nodes
+//! then carry `2 + n` yarn passes (§3.2.3); increases, yarn-overs and slipped loops follow
+//! [`knit`]. Boundary 0 (cast-on) and boundary `H` (bind-off) nodes carry only one yarn.
+//! [`Construction`] says how the rows are joined: each row its own yarn whose ends are
+//! tied to the fabric (pinned sliding; the first version's model and the default), one
+//! continuous yarn turning back at the row ends (§3.1: "when the yarn reaches the end of a
+//! row, it is typically bent back to form the next row"), or one yarn spiralling round a
+//! tube. A [`StitchContact`] names its yarn passes as [`Strand`]s, so one yarn may pass a
+//! contact several times (a decrease of one row's loops, or the rows of a continuous yarn)
+//! and in either direction.
 //!
 //! **Stable edges.** A node with a single yarn has that yarn's sliding coordinate pinned (a
 //! one-yarn node is a material point of the yarn: this keeps the cast-on and bind-off loops
 //! from unravelling), and so has the first and the last pass of every yarn (yarn ends are tied
 //! to the fabric, §3.1). See [`NodePass::sliding_pinned`].
 
-use crate::chart::{Chart, Stitch};
+pub mod knit;
+
+use crate::chart::Chart;
 use crate::weave::WeavePattern;
+pub use knit::{Cell, KnitMap};
+
+/// How the rows of a knit are joined into yarns.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Construction {
+    /// Flat, each row its own yarn, left to right, tied to the fabric at both ends.
+    #[default]
+    FlatPerRow,
+    /// Flat, one continuous yarn from the cast-on to the bind-off: row 0 left to right, and
+    /// the yarn turns back at each row end (odd rows right to left, front view).
+    Flat,
+    /// In the round: one yarn spiralling round a tube, every round left to right (front view,
+    /// the outside of the tube); the last loop of a round is the neighbour of its first.
+    Round,
+}
+
+impl Construction {
+    /// The name in scene files: `flat-per-row`, `flat` or `round`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::FlatPerRow => "flat-per-row",
+            Self::Flat => "flat",
+            Self::Round => "round",
+        }
+    }
+
+    /// The construction named `name` ([`Construction::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::FlatPerRow, Self::Flat, Self::Round]
+            .into_iter()
+            .find(|c| c.name() == name)
+    }
+}
+
+/// One yarn's way through the two nodes of a stitch contact: pass `index` of `yarn` is at
+/// the contact's `q₀`, and the pass at `q₁` is the next one (`forward`) or the previous one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Strand {
+    /// Yarn index.
+    pub yarn: usize,
+    /// Index of the pass at `q₀` within the yarn.
+    pub index: usize,
+    /// Whether the yarn runs `q₀ → q₁` (else `q₁ → q₀`).
+    pub forward: bool,
+}
+
+impl Strand {
+    /// Pass indices at `[q₀, q₁]`.
+    pub fn indices(&self) -> [usize; 2] {
+        if self.forward {
+            [self.index, self.index + 1]
+        } else {
+            [self.index, self.index - 1]
+        }
+    }
+}
 
 /// One pass of a yarn through a node.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -86,24 +149,45 @@ pub enum Side {
     Right,
 }
 
-/// A two-yarn stitch contact (seed 000 §3.2.2, Fig. 8): two nodes shared by the leg of the
-/// upper loop and the head of the lower loop.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A stitch contact (seed 000 §3.2.2–§3.2.3, Fig. 8): two nodes shared by the leg of the upper
+/// loop and the head(s) of the loop(s) it is pulled through (stacked for decreases), or a
+/// lifted bar.
+#[derive(Clone, Debug, PartialEq)]
 pub struct StitchContact {
-    /// The contact's end nodes `[q₀, q₁]` (Fig. 8) in yarn order: both yarns visit `q₀` then
-    /// `q₁` (`lo` then `hi` for left contacts, `hi` then `lo` for right contacts).
+    /// The contact's end nodes `[q₀, q₁]` (Fig. 8) in geometric order: `lo → hi` for left
+    /// contacts, `hi → lo` for right contacts (a row knitted left to right runs this way).
     pub nodes: [usize; 2],
-    /// `[upper, lower]`: the yarn of the row whose legs go through (row `r`), and the yarn of
-    /// the row whose head they go through (row `r − 1`).
-    pub yarns: [usize; 2],
-    /// The stitch (knit or purl, front view) of the upper loop.
-    pub stitch: Stitch,
+    /// The leg of the upper loop (row `row`).
+    pub upper: Strand,
+    /// The heads it goes through, in stacking order (top first; one for a simple stitch).
+    pub lower: Vec<Strand>,
+    /// Out-of-plane sign of the upper loop's stitch ([`crate::chart::Stitch::sign`]: `+1`
+    /// knit-type, `−1` purl-type).
+    pub sign: f64,
     /// Row of the upper loop (≥ 1).
     pub row: usize,
-    /// Column of both loops.
+    /// Index of the upper loop within its row (the column of a rectangular chart).
     pub column: usize,
     /// Which leg of the upper loop.
     pub side: Side,
+}
+
+impl StitchContact {
+    /// Every strand: the upper one first, then the lower ones in stacking order.
+    pub fn strands(&self) -> impl Iterator<Item = &Strand> {
+        std::iter::once(&self.upper).chain(&self.lower)
+    }
+
+    /// The yarn passes through the contact's nodes front to back: for a knit-type stitch the
+    /// upper leg (pulled through to the front), then the heads top first; for a purl-type
+    /// stitch (the knit seen from the back) the reverse.
+    pub fn front_to_back(&self) -> Vec<Strand> {
+        let mut v: Vec<Strand> = self.strands().copied().collect();
+        if self.sign < 0.0 {
+            v.reverse();
+        }
+        v
+    }
 }
 
 /// A warp × weft crossing of a weave (seed 000 §3.2.1): one node shared by both yarns.
@@ -144,7 +228,7 @@ pub enum TopologyError {
 }
 
 /// Nodes, yarns, stitch contacts and crossings of a fabric (see the module documentation).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Topology {
     /// Contact nodes.
     pub nodes: Vec<Node>,
@@ -156,6 +240,8 @@ pub struct Topology {
     pub crossings: Vec<Crossing>,
     /// What the topology was built from.
     pub kind: FabricKind,
+    /// Where the nodes of a knit lie in its structure (`None` for weaves).
+    pub knit: Option<KnitMap>,
 }
 
 /// Node index of (boundary `b`, column `c`, side, end) in a knit of width `w`.
@@ -189,50 +275,22 @@ pub fn knit_column_nodes(w: usize, h: usize, c: usize) -> Vec<usize> {
 }
 
 impl Topology {
-    /// The knit of `chart`: one yarn per row, two nodes per stitch contact (module docs).
+    /// The knit of `chart` with one yarn per row ([`Construction::FlatPerRow`]; module
+    /// documentation).
     pub fn knit(chart: &Chart) -> Self {
-        let (w, h) = (chart.width(), chart.height());
-        let node = |b, c, side, hi| knit_node(w, b, c, side, hi);
-        let yarn_nodes: Vec<Vec<usize>> = (0..h)
-            .map(|r| {
-                (0..w)
-                    .flat_map(|c| {
-                        [
-                            node(r, c, Side::Left, false),
-                            node(r, c, Side::Left, true),
-                            node(r + 1, c, Side::Left, false),
-                            node(r + 1, c, Side::Left, true),
-                            node(r + 1, c, Side::Right, true),
-                            node(r + 1, c, Side::Right, false),
-                            node(r, c, Side::Right, true),
-                            node(r, c, Side::Right, false),
-                        ]
-                    })
-                    .collect()
-            })
-            .collect();
-        let mut stitch_contacts = Vec::new();
-        for b in 1..h {
-            for c in 0..w {
-                for side in [Side::Left, Side::Right] {
-                    // Both yarns run up-right through left contacts (lo → hi) and down-right
-                    // through right contacts (hi → lo).
-                    let lo_first = side == Side::Left;
-                    stitch_contacts.push(StitchContact {
-                        nodes: [node(b, c, side, !lo_first), node(b, c, side, lo_first)],
-                        yarns: [b, b - 1],
-                        stitch: chart.stitch(b, c),
-                        row: b,
-                        column: c,
-                        side,
-                    });
-                }
-            }
+        knit::build(chart, Construction::FlatPerRow)
+    }
+
+    /// The knit of `chart` knitted as `construction` (module documentation). Errors for a
+    /// tube of fewer than 3 stitches.
+    pub fn knit_with(chart: &Chart, construction: Construction) -> Result<Self, TopologyError> {
+        if construction == Construction::Round && chart.width() < 3 {
+            return Err(TopologyError::Invalid(format!(
+                "a tube knitted in the round needs ≥ 3 stitches per round, the chart casts on {}",
+                chart.width()
+            )));
         }
-        let n_nodes = 4 * w * (h + 1);
-        let mut topo = Self::from_yarn_nodes(n_nodes, &yarn_nodes, FabricKind::Knit(chart.clone()));
-        topo.stitch_contacts = stitch_contacts;
-        topo
+        Ok(knit::build(chart, construction))
     }
 
     /// A `warps × wefts` weave: node `j · warps + i` is the crossing of warp `i` and weft `j`;
@@ -270,7 +328,11 @@ impl Topology {
 
     /// Builds nodes and yarns from per-yarn node lists; slots are numbered in yarn order
     /// (yarn 0's passes first). Applies the pinning rules of the module documentation.
-    fn from_yarn_nodes(n_nodes: usize, yarn_nodes: &[Vec<usize>], kind: FabricKind) -> Self {
+    pub(crate) fn from_yarn_nodes(
+        n_nodes: usize,
+        yarn_nodes: &[Vec<usize>],
+        kind: FabricKind,
+    ) -> Self {
         let mut nodes = vec![Node { passes: Vec::new() }; n_nodes];
         let yarns = yarn_nodes
             .iter()
@@ -302,6 +364,7 @@ impl Topology {
             stitch_contacts: Vec::new(),
             crossings: Vec::new(),
             kind,
+            knit: None,
         }
     }
 
@@ -370,16 +433,65 @@ impl Topology {
             }
         }
         for (k, sc) in self.stitch_contacts.iter().enumerate() {
-            for &y in &sc.yarns {
-                let i0 = self.pass_index(sc.nodes[0], y);
-                let i1 = self.pass_index(sc.nodes[1], y);
-                match (i0, i1) {
-                    (Some(a), Some(b)) if b == a + 1 => {}
-                    _ => return bad(format!("stitch contact {k}: yarn {y} does not run q₀ → q₁")),
+            for st in sc.strands() {
+                let ok = st.forward || st.index > 0;
+                let at = |i: usize| self.yarns.get(st.yarn)?.passes.get(i).map(|p| p.node);
+                let [i0, i1] = st.indices();
+                if !ok || at(i0) != Some(sc.nodes[0]) || at(i1) != Some(sc.nodes[1]) {
+                    return bad(format!(
+                        "stitch contact {k}: yarn {} does not run through q₀ and q₁ at pass {}",
+                        st.yarn, st.index
+                    ));
                 }
             }
         }
         Ok(())
+    }
+
+    /// `(node, slot)` of the pass `index` of `yarn`.
+    pub fn pass_slot(&self, yarn: usize, index: usize) -> (usize, usize) {
+        let p = self.yarns[yarn].passes[index];
+        (p.node, p.slot)
+    }
+
+    /// `[(node, slot) at q₀, (node, slot) at q₁]` of a strand.
+    pub fn strand_slots(&self, strand: &Strand) -> [(usize, usize); 2] {
+        strand.indices().map(|i| self.pass_slot(strand.yarn, i))
+    }
+
+    /// The node on `strand`'s yarn next to the contact node `end` (0 = `q₀`, 1 = `q₁`) away
+    /// from the contact (`q₄`/`q₃` of Fig. 8), if the yarn goes on.
+    pub fn strand_outer(&self, strand: &Strand, end: usize) -> Option<usize> {
+        let [i0, i1] = strand.indices();
+        let (i, other) = if end == 0 { (i0, i1) } else { (i1, i0) };
+        let j = if i > other {
+            i.checked_add(1)?
+        } else {
+            i.checked_sub(1)?
+        };
+        self.yarns[strand.yarn].passes.get(j).map(|p| p.node)
+    }
+
+    /// The stack of every node front to back, as slots, with per adjacent pair whether the two
+    /// yarns are parallel (two heads stacked by a decrease: they slide along one axis, seed
+    /// 000 §4.4). `None` for nodes that are not on a stitch contact.
+    pub fn knit_stacks(&self) -> Vec<Option<(Vec<usize>, Vec<bool>)>> {
+        let mut out = vec![None; self.nodes.len()];
+        for sc in &self.stitch_contacts {
+            let order = sc.front_to_back();
+            for (end, &node) in sc.nodes.iter().enumerate() {
+                let slots: Vec<usize> = order
+                    .iter()
+                    .map(|st| self.strand_slots(st)[end].1)
+                    .collect();
+                let parallel = order
+                    .windows(2)
+                    .map(|w| w[0] != sc.upper && w[1] != sc.upper)
+                    .collect();
+                out[node] = Some((slots, parallel));
+            }
+        }
+        out
     }
 
     /// Index within yarn `yarn` of its (first) pass through `node`, if any.
@@ -389,5 +501,15 @@ impl Topology {
             .iter()
             .find(|p| p.yarn == yarn)
             .map(|p| p.index)
+    }
+
+    /// Every node of row boundary `b` of a knit (cells left to right, each `L lo, L hi,
+    /// R lo, R hi`; for a rectangular chart [`knit_boundary_nodes`]); empty for a weave or
+    /// a boundary out of range.
+    pub fn boundary_nodes(&self, b: usize) -> Vec<usize> {
+        match &self.knit {
+            Some(k) if b < k.boundaries.len() => k.boundary_nodes(b),
+            _ => Vec::new(),
+        }
     }
 }
