@@ -73,6 +73,15 @@ fn knit_size(topology: &Topology, positions: &[V3]) -> Result<(usize, usize), Me
         return Err(MeasureError::Invalid("not a knit".into()));
     };
     let (w, h) = (chart.width(), chart.height());
+    let flat = topology
+        .knit
+        .as_ref()
+        .is_some_and(|k| k.construction != crate::topology::Construction::Round);
+    if !chart.is_rectangular() || !flat {
+        return Err(MeasureError::Invalid(
+            "edge measures need a rectangular K/P chart knitted flat".into(),
+        ));
+    }
     if w < 3 || h < 3 {
         return Err(MeasureError::Invalid(format!(
             "{w} × {h} stitches: needs ≥ 3 × 3"

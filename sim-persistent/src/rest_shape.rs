@@ -101,8 +101,11 @@ pub struct Repeat {
 /// The smallest rectangular repeat of `chart` (module documentation, step 1).
 pub fn detect_repeat(chart: &Chart) -> Repeat {
     let (w, h) = (chart.width(), chart.height());
+    // `get`: rows of a shaped chart may be shorter than the cast-on (such charts are refused
+    // by [`Rectangle::new`]; this function only must not panic on them).
+    let at = |r: usize, c: usize| chart.row(r).get(c);
     let columns = (1..=w)
-        .find(|&p| (0..h).all(|r| (0..w - p).all(|c| chart.stitch(r, c) == chart.stitch(r, c + p))))
+        .find(|&p| (0..h).all(|r| (0..w - p).all(|c| at(r, c) == at(r, c + p))))
         .unwrap_or(w);
     let rows = (1..=h)
         .find(|&p| (0..h - p).all(|r| chart.row(r) == chart.row(r + p)))
@@ -256,6 +259,14 @@ impl Rectangle {
         if margin == 0 {
             return Err(RestShapeError::Invalid(
                 "margin must be ≥ 1 loop (the tile frame needs a neighbour)".into(),
+            ));
+        }
+        if !chart.is_rectangular() {
+            return Err(RestShapeError::Invalid(
+                "rest-shape compensation needs a rectangular K/P chart (its characteristic \
+                 rectangle repeats the stitch grid); this chart changes its width or uses \
+                 other stitches"
+                    .into(),
             ));
         }
         let repeat = detect_repeat(chart);
@@ -582,6 +593,11 @@ pub fn transfer(
     centre: V3,
 ) -> Result<Layout, RestShapeError> {
     let relaxed = &relaxed_layout.positions[..];
+    if !chart.is_rectangular() {
+        return Err(RestShapeError::Invalid(
+            "rest-shape transfer needs a rectangular K/P chart".into(),
+        ));
+    }
     let repeat = detect_repeat(chart);
     if repeat != rect.repeat {
         return Err(RestShapeError::Invalid(format!(

@@ -380,4 +380,46 @@ fn shipped_scenes_are_valid() {
     let text = include_str!("../scenes/stockinette-uniaxial.toml");
     let test = parse(text).unwrap().uniaxial_test().unwrap().unwrap();
     assert_eq!((test.max_stretch, test.steps), (0.3, 15));
+    // Stacked stitches on one continuous yarn; a tube in the round.
+    for (text, yarns) in [
+        (include_str!("../scenes/lace-hanging.toml"), 1),
+        (include_str!("../scenes/tube-round.toml"), 1),
+    ] {
+        let run = parse(text).unwrap().build().unwrap();
+        assert_eq!(run.sim.topology().yarns.len(), yarns);
+        assert!(run.sim.topology().nodes.iter().any(|n| n.passes.len() > 2));
+        assert_eq!(run.clamps.len(), 1);
+        let bind_off = run.sim.topology().knit.as_ref().unwrap().boundaries.len() - 1;
+        assert_eq!(run.clamps[0].0, run.sim.topology().boundary_nodes(bind_off));
+    }
+}
+
+/// `construction` names a knit construction, applies to knits only, and a shaped chart has
+/// no side clamps.
+#[test]
+fn construction_and_shaped_chart_errors() {
+    let err = |text: &str| match parse(text) {
+        Ok(scene) => scene
+            .build()
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default(),
+        Err(e) => e.to_string(),
+    };
+    let e = err("steps = 1\n[pattern]\nchart = \"K4\"\nconstruction = \"spiral\"\n");
+    assert!(
+        e.contains("construction \"spiral\"") && e.contains("\"round\""),
+        "{e}"
+    );
+    let e = err(
+        "steps = 1\n[pattern]\nbuilder = \"plain\"\nwarps = 3\nwefts = 3\nconstruction = \"flat\"\n",
+    );
+    assert!(e.contains("applies to knits"), "{e}");
+    let e = err("steps = 1\n[pattern]\nchart = \"K4\\nK2TOG K2\"\n[[clamp]]\nedge = \"left\"\n");
+    assert!(e.contains("rectangular"), "{e}");
+    let e = err("steps = 1\n[pattern]\nchart = \"K4\\nK2TOG K\"\n");
+    assert!(
+        e.contains("line 2") && e.contains("works 3 of the 4 loops"),
+        "{e}"
+    );
 }

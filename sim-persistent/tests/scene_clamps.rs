@@ -62,6 +62,7 @@ fn side_and_column_clamps_select_their_nodes_and_drive() {
     let grid = Grid::Knit {
         width: 4,
         height: 3,
+        shaped: None,
     };
     let mut run = scene.build().unwrap();
     let sets = [ClampSet::Left, ClampSet::Right, ClampSet::Column(2)];
@@ -144,6 +145,7 @@ fn shipped_side_stretch_scene_is_valid() {
     let grid = Grid::Knit {
         width: 8,
         height: 6,
+        shaped: None,
     };
     assert_eq!(run.clamps[0].0, ClampSet::Left.nodes(grid).unwrap());
     assert_eq!(run.clamps[1].0, ClampSet::Right.nodes(grid).unwrap());

@@ -7,6 +7,7 @@ use sim_persistent::chart::Chart;
 use sim_persistent::experiment::uniaxial::{Pull, UniaxialTest, default_test};
 use sim_persistent::params::YarnParams;
 use sim_persistent::scene::Fabric;
+use sim_persistent::topology::Construction;
 use sim_persistent::weave::WeavePattern;
 
 fn quick(fabric: Fabric, pull: Pull) -> UniaxialTest {
@@ -22,7 +23,9 @@ fn quick(fabric: Fabric, pull: Pull) -> UniaxialTest {
 #[test]
 fn stockinette_weft_pull_stiffens_and_contracts() {
     let chart = Chart::stockinette(6, 6).unwrap();
-    let run = quick(Fabric::Knit(chart), Pull::Weft).run().unwrap();
+    let run = quick(Fabric::Knit(chart, Construction::FlatPerRow), Pull::Weft)
+        .run()
+        .unwrap();
     assert_eq!(run.samples.len(), 5);
     assert_eq!(run.periods, 6);
     let s: Vec<f64> = run.samples.iter().map(|p| p.stretch).collect();
@@ -69,7 +72,7 @@ fn bias_and_bad_settings_are_errors() {
     assert!(e.contains("sideways") && e.contains("weft or warp"), "{e}");
     assert_eq!(Pull::parse("warp"), Ok(Pull::Warp));
     let chart = Chart::stockinette(4, 4).unwrap();
-    let mut t = quick(Fabric::Knit(chart), Pull::Weft);
+    let mut t = quick(Fabric::Knit(chart, Construction::FlatPerRow), Pull::Weft);
     t.max_stretch = -0.1;
     let e = t.run().unwrap_err().to_string();
     assert!(e.contains("max_stretch"), "{e}");

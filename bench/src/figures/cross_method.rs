@@ -65,6 +65,7 @@ use sim_persistent::experiment::uniaxial::{Pull, UniaxialRun, UniaxialTest};
 use sim_persistent::layout::LayoutParams;
 use sim_persistent::params::YarnParams;
 use sim_persistent::scene::Fabric;
+use sim_persistent::topology::Construction;
 use sim_persistent::weave::WeavePattern;
 use yarn_pattern::direction::Direction;
 
@@ -126,9 +127,9 @@ fn sizes(quick: bool) -> (usize, f64, usize) {
 pub fn persistent_fabric(pattern: Pattern, n: usize) -> anyhow::Result<(Fabric, [f64; 2])> {
     let spacing = pattern.default_params(yarn().radius).spacing;
     let fabric = match pattern {
-        Pattern::Stockinette => Fabric::Knit(Chart::stockinette(n, n)?),
-        Pattern::Garter => Fabric::Knit(Chart::garter(n, n)?),
-        Pattern::Rib1x1 => Fabric::Knit(Chart::rib(n, n, 1, 1)?),
+        Pattern::Stockinette => Fabric::Knit(Chart::stockinette(n, n)?, Construction::FlatPerRow),
+        Pattern::Garter => Fabric::Knit(Chart::garter(n, n)?, Construction::FlatPerRow),
+        Pattern::Rib1x1 => Fabric::Knit(Chart::rib(n, n, 1, 1)?, Construction::FlatPerRow),
         Pattern::PlainWeave => Fabric::Weave {
             pattern: WeavePattern::Plain,
             warps: n,

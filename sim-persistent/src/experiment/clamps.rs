@@ -9,17 +9,23 @@ use rod::geometry::V3;
 use super::swatch::{centroid, positions};
 use crate::integrator::Simulator;
 use crate::scene::Fabric;
-use crate::topology::{knit_boundary_nodes, knit_column_nodes};
+use crate::topology::{Construction, knit_boundary_nodes, knit_column_nodes};
 
 /// The node grid of a swatch, as far as clamps need it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Grid {
-    /// A knit `width` stitches wide and `height` rows tall ([`crate::topology::Topology::knit`]).
+    /// A knit `width` stitches wide (its cast-on) and `height` rows tall
+    /// ([`crate::topology::Topology::knit_with`]).
     Knit {
-        /// Stitches per row.
+        /// Stitches per row (of the cast-on).
         width: usize,
         /// Rows.
         height: usize,
+        /// `None` for a rectangular K/P chart knitted flat, whose nodes form the grid of
+        /// [`crate::topology::knit_node`]; otherwise `(first node, loops)` of the bind-off
+        /// boundary (the last nodes of the topology; side and column clamps then do not
+        /// apply).
+        shaped: Option<(usize, usize)>,
     },
     /// A weave; node `j · warps + i` is the crossing of warp `i` and weft `j`
     /// ([`crate::topology::Topology::weave`]).
@@ -34,10 +40,23 @@ pub enum Grid {
 impl From<&Fabric> for Grid {
     fn from(fabric: &Fabric) -> Self {
         match fabric {
-            Fabric::Knit(chart) => Grid::Knit {
-                width: chart.width(),
-                height: chart.height(),
-            },
+            Fabric::Knit(chart, construction) => {
+                let flat = *construction != Construction::Round;
+                let shaped = (!(flat && chart.is_rectangular())).then(|| {
+                    // Cells: one per loop pulled through something, plus the bind-off's.
+                    let cells: usize = (0..chart.height())
+                        .flat_map(|r| chart.row(r).iter())
+                        .filter(|s| s.makes_contacts())
+                        .map(|s| s.produces())
+                        .sum();
+                    (4 * cells, chart.loops_made(chart.height() - 1))
+                });
+                Grid::Knit {
+                    width: chart.width(),
+                    height: chart.height(),
+                    shaped,
+                }
+            }
             Fabric::Weave { warps, wefts, .. } => Grid::Weave {
                 warps: *warps,
                 wefts: *wefts,
@@ -96,9 +115,25 @@ impl ClampSet {
             }
         };
         let last_row = self == Self::BindOff;
+        if let Grid::Knit {
+            width,
+            shaped: Some((bind_off, loops)),
+            ..
+        } = grid
+        {
+            return match column {
+                None if last_row => Ok((bind_off..bind_off + 4 * loops).collect()),
+                None => Ok((0..4 * width).collect()),
+                Some(_) => Err(format!(
+                    "clamp `{self}` needs a rectangular K/P chart knitted flat; this chart \
+                     changes its width or is knitted in the round (clamp the cast-on or the \
+                     bind-off instead)"
+                )),
+            };
+        }
         Ok(match (grid, column) {
-            (Grid::Knit { width, height }, Some(c)) => knit_column_nodes(width, height, c),
-            (Grid::Knit { width, height }, None) => {
+            (Grid::Knit { width, height, .. }, Some(c)) => knit_column_nodes(width, height, c),
+            (Grid::Knit { width, height, .. }, None) => {
                 knit_boundary_nodes(width, if last_row { height } else { 0 })
             }
             (Grid::Weave { warps, wefts }, Some(i)) => (0..wefts).map(|j| j * warps + i).collect(),
@@ -141,6 +176,7 @@ impl SideClamps {
         let grid = Grid::Knit {
             width: w,
             height: h,
+            shaped: None,
         };
         let left = ClampSet::Left.nodes(grid).map_err(anyhow::Error::msg)?;
         let right = ClampSet::Right.nodes(grid).map_err(anyhow::Error::msg)?;
@@ -171,12 +207,13 @@ mod tests {
     #[test]
     fn knit_clamp_sets() {
         let chart = Chart::stockinette(4, 3).unwrap();
-        let grid = Grid::from(&Fabric::Knit(chart.clone()));
+        let grid = Grid::from(&Fabric::Knit(chart.clone(), Construction::FlatPerRow));
         assert_eq!(
             grid,
             Grid::Knit {
                 width: 4,
-                height: 3
+                height: 3,
+                shaped: None,
             }
         );
         let topo = Topology::knit(&chart);
@@ -204,6 +241,34 @@ mod tests {
             err.contains("column 4") && err.contains("4 columns"),
             "{err}"
         );
+    }
+
+    /// On a shaped chart and on a tube the cast-on and bind-off clamps hold the boundary nodes
+    /// of the topology; side clamps are refused with the reason.
+    #[test]
+    fn shaped_and_round_clamp_sets() {
+        let chart = Chart::parse("K5\nK K2TOG YO K2 YO\nK KFB K3 P\nK2TOG K3 SSK\n").unwrap();
+        for construction in [
+            Construction::FlatPerRow,
+            Construction::Flat,
+            Construction::Round,
+        ] {
+            let topo = Topology::knit_with(&chart, construction).unwrap();
+            let grid = Grid::from(&Fabric::Knit(chart.clone(), construction));
+            assert_eq!(
+                ClampSet::CastOn.nodes(grid).unwrap(),
+                topo.boundary_nodes(0)
+            );
+            assert_eq!(
+                ClampSet::BindOff.nodes(grid).unwrap(),
+                topo.boundary_nodes(4)
+            );
+            let err = ClampSet::Left.nodes(grid).unwrap_err();
+            assert!(err.contains("rectangular"), "{err}");
+        }
+        // A rectangular chart in the round is a tube: no side edges either.
+        let tube = Fabric::Knit(Chart::stockinette(4, 3).unwrap(), Construction::Round);
+        assert!(ClampSet::Right.nodes(Grid::from(&tube)).is_err());
     }
 
     /// On a 3-warp × 4-weft weave: columns are warps, rows are wefts.

@@ -45,7 +45,7 @@ use super::swatch::{LOOP_WIDTH, SwatchSettings, centroid, positions, run_steps};
 use crate::integrator::Simulator;
 use crate::layout::{Layout, LayoutParams};
 use crate::scene::Fabric;
-use crate::topology::{knit_boundary_nodes, knit_column_nodes};
+use crate::topology::{Construction, knit_boundary_nodes, knit_column_nodes};
 
 /// Most halvings of a load step whose static solve fails.
 pub const MAX_HALVINGS: u32 = 4;
@@ -178,6 +178,14 @@ impl UniaxialTest {
             self.max_stretch,
             self.steps
         );
+        if let Fabric::Knit(chart, construction) = &self.fabric {
+            anyhow::ensure!(
+                chart.is_rectangular() && *construction != Construction::Round,
+                "a uniaxial test needs a rectangular K/P chart knitted flat (its clamps and \
+                 width lines follow the stitch grid); this chart changes its width or is \
+                 knitted in the round"
+            );
+        }
         let s = &self.settings;
         let topology = self.fabric.topology()?;
         let layout = Layout::new(&topology, &self.layout)?;
@@ -331,11 +339,11 @@ impl UniaxialTest {
 #[allow(clippy::type_complexity)]
 fn lines(fabric: &Fabric, pull: Pull) -> (usize, usize, Box<dyn Fn(usize) -> Vec<usize>>) {
     match (fabric, pull) {
-        (Fabric::Knit(chart), Pull::Weft) => {
+        (Fabric::Knit(chart, _), Pull::Weft) => {
             let (w, h) = (chart.width(), chart.height());
             (h + 1, h, Box::new(move |b| knit_boundary_nodes(w, b)))
         }
-        (Fabric::Knit(chart), Pull::Warp) => {
+        (Fabric::Knit(chart, _), Pull::Warp) => {
             let (w, h) = (chart.width(), chart.height());
             (w, w, Box::new(move |c| knit_column_nodes(w, h, c)))
         }

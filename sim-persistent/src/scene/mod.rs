@@ -18,7 +18,11 @@
 //! width = 8            # stitches per row
 //! height = 6           # rows
 //! rib = [2, 2]         # knits and purls per rib repeat (builder "rib" only; default [2, 2])
-//! # chart = "K4\nP4"   # … or a chart in the text format of `chart` (then no builder/size)
+//! # chart = "K4\nP4"   # … or a chart in the text format of `chart` (then no builder/size;
+//!                      # any stitch of crate::chart: YO, K2TOG, SSK, M1L, KFB, …)
+//! # construction = "flat"  # knits: "flat-per-row" (default: one yarn per row, ends tied),
+//!                      # "flat" (one continuous yarn turning at the row ends) or "round"
+//!                      # (a tube; crate::topology::Construction)
 //! # builder = "twill"  # … or a weave: "plain", "twill", "satin" (crate::weave) with
 //! # warps = 8          # warp yarns (columns, along y) and
 //! # wefts = 8          # weft yarns (rows, along x), both ≥ 2; the yarn spacing is
@@ -66,7 +70,9 @@
 //! # column = 3         # … or every node of stitch column 3 (0-based, < width)
 //! velocity = [0.0, 0.01, 0.0]   # m/s; default zero (a fixed clamp)
 //!                      # (weaves: "cast-on" is weft 0, "bind-off" the last weft, "left" /
-//!                      # "right" warp 0 / the last warp, `column = i` warp i)
+//!                      # "right" warp 0 / the last warp, `column = i` warp i; a chart
+//!                      # that changes its width or is knitted in the round has only
+//!                      # "cast-on" and "bind-off")
 //!
 //! [uniaxial]           # optional: the virtual swatch test (crate::experiment::uniaxial)
 //!                      # instead of a time-stepped run; no [[clamp]] then (the test
@@ -378,7 +384,7 @@ impl Scene {
     /// The chart of a knitted `[pattern]` (an error for a weave; see [`Scene::fabric`]).
     pub fn chart(&self) -> Result<Chart, SceneError> {
         match self.fabric()? {
-            Fabric::Knit(chart) => Ok(chart),
+            Fabric::Knit(chart, _) => Ok(chart),
             Fabric::Weave { .. } => Err(SceneError::Invalid(
                 "[pattern] describes a weave, not a stitch chart".into(),
             )),

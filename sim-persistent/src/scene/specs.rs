@@ -5,7 +5,7 @@ use super::SceneError;
 use crate::chart::Chart;
 use crate::experiment::clamps::{ClampSet, Grid};
 use crate::forces::ForceSet;
-use crate::topology::Topology;
+use crate::topology::{Construction, Topology};
 use crate::weave::WeavePattern;
 use rod::geometry::V3;
 use serde::Deserialize;
@@ -25,6 +25,9 @@ pub struct PatternSpec {
     pub rib: Option<[usize; 2]>,
     /// A chart in the text format of [`crate::chart`] (instead of a builder).
     pub chart: Option<String>,
+    /// How a knit is knitted ([`Construction::name`]): `flat-per-row` (default: one yarn per
+    /// row), `flat` (one continuous yarn turning at the row ends) or `round` (a tube).
+    pub construction: Option<String>,
     /// Warp yarns (with a weave builder, ≥ 2).
     pub warps: Option<usize>,
     /// Weft yarns (with a weave builder, ≥ 2).
@@ -38,8 +41,8 @@ pub struct PatternSpec {
 /// The fabric a `[pattern]` describes.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Fabric {
-    /// A knit from a stitch chart.
-    Knit(Chart),
+    /// A knit from a stitch chart, knitted as the [`Construction`] says.
+    Knit(Chart, Construction),
     /// A woven fabric ([`Topology::weave`]).
     Weave {
         /// The weave pattern.
@@ -55,7 +58,8 @@ impl Fabric {
     /// The topology of the fabric.
     pub fn topology(&self) -> Result<Topology, SceneError> {
         match self {
-            Fabric::Knit(chart) => Ok(Topology::knit(chart)),
+            Fabric::Knit(chart, construction) => Topology::knit_with(chart, *construction)
+                .map_err(|e| SceneError::Invalid(format!("[pattern] {e}"))),
             Fabric::Weave {
                 pattern,
                 warps,
@@ -88,6 +92,14 @@ impl PatternSpec {
                 None => Ok(()),
             }
         };
+        let construction = match &self.construction {
+            None => Construction::default(),
+            Some(name) => Construction::from_name(name).ok_or_else(|| {
+                bad(format!(
+                    "construction \"{name}\" is not one of \"flat-per-row\", \"flat\", \"round\""
+                ))
+            })?,
+        };
         match (&self.builder, &self.chart) {
             (Some(_), Some(_)) | (None, None) => {
                 Err(bad("needs exactly one of `builder` and `chart`".into()))
@@ -95,7 +107,7 @@ impl PatternSpec {
             (None, Some(text)) => {
                 reject(&knit_size, "a chart (it sets the size itself)")?;
                 reject(&weave_size, "a chart (it sets the size itself)")?;
-                Ok(Fabric::Knit(Chart::parse(text)?))
+                Ok(Fabric::Knit(Chart::parse(text)?, construction))
             }
             (Some(builder), None) => match builder.as_str() {
                 "stockinette" | "garter" | "seed" | "rib" => {
@@ -110,7 +122,7 @@ impl PatternSpec {
                             "`rib` only applies to builder \"rib\", not \"{builder}\""
                         )));
                     }
-                    Ok(Fabric::Knit(match builder.as_str() {
+                    let chart = match builder.as_str() {
                         "stockinette" => Chart::stockinette(w, h)?,
                         "garter" => Chart::garter(w, h)?,
                         "seed" => Chart::seed(w, h)?,
@@ -118,10 +130,16 @@ impl PatternSpec {
                             let [k, pu] = self.rib.unwrap_or([2, 2]);
                             Chart::rib(w, h, k, pu)?
                         }
-                    }))
+                    };
+                    Ok(Fabric::Knit(chart, construction))
                 }
                 "plain" | "twill" | "satin" => {
                     reject(&knit_size, &format!("weave builder \"{builder}\""))?;
+                    if self.construction.is_some() {
+                        return Err(bad(format!(
+                            "`construction` applies to knits, not weave builder \"{builder}\""
+                        )));
+                    }
                     let (Some(warps), Some(wefts)) = (self.warps, self.wefts) else {
                         return Err(bad(format!(
                             "builder \"{builder}\" needs `warps` and `wefts`"
