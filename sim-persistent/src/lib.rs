@@ -7,13 +7,13 @@
 //!
 //! | module | contents | source |
 //! |---|---|---|
-//! | [`chart`] | the text stitch-chart format (K, P; YO, K2TOG, SSK, M1 reserved), parser with located errors, garter / stockinette / rib / seed builders | seed 000 §3.1 |
+//! | [`chart`] | the text stitch-chart format (every stitch of §3.1: K, P, YO, SL, K2TOG, SSK, K3TOG, S2KP, purl counterparts, M1L/M1R, KFB/PFB), parser with located errors and stitch-count checks, garter / stockinette / rib / seed builders | seed 000 §3.1 |
 //! | [`weave`] | plain, twill and satin weave patterns | seed 000 §3.1, §3.2.1 |
-//! | [`topology`] | yarns as ordered node passes, n-yarn contact nodes, stitch contacts (two nodes each), weave crossings, stable edges | seed 000 §3.2 |
-//! | [`layout`] | initial positions and sliding coordinates from the chart | seed 000 §4.1 |
+//! | [`topology`] | yarns as ordered node passes, n-yarn contact nodes, stitch contacts (two nodes each, stacked heads for decreases), the knit builder for any chart flat (one yarn per row or one continuous yarn) or in the round, weave crossings, stable edges | seed 000 §3.1–§3.2.3 |
+//! | [`layout`] | initial positions and sliding coordinates from the chart (flat, or round a tube) | seed 000 §4.1 |
 //! | [`params`] | yarn parameters, Table 1 presets | seed 000 Table 1 |
 //! | [`state`] | generalized coordinates, DOF map, state-dependent segment mass matrix | seed 000 §3.2, physics notes |
-//! | [`forces`] | gravity, stretch, bending with jamming (Eq. 1), stitch wrapping (Eq. 2, Eqs. 7–13), stitch-contact length (Eq. 6), compression estimation at contact nodes (Eqs. 3–4, closed form and exact NNLS), sliding friction with anchored springs and the Coulomb bound μλ (Eq. 5) with an optional return mapping, contact between adjacent loops (off by default), a floor on segments' material length (ours, on by default), weave crossing shear with jamming, sphere and plane obstacles, inertia and Rayleigh damping forms; the summed [`forces::Potential`] (a `solver::Terms` container with each term's kind) | seed 000 §4, ref. 6 |
+//! | [`forces`] | gravity, stretch, bending with jamming (Eq. 1), stitch wrapping (Eq. 2, Eqs. 7–13), stitch-contact length (Eq. 6), compression estimation at contact nodes (Eqs. 3–4, closed form and exact NNLS), sliding friction with anchored springs and the Coulomb bound μλ (Eq. 5; pair springs on Δu for parallel stacked yarns) with an optional return mapping, contact between adjacent loops (off by default), a floor on segments' material length (ours, on by default), weave crossing shear with jamming, sphere and plane obstacles, inertia and Rayleigh damping forms; the summed [`forces::Potential`] (a `solver::Terms` container with each term's kind) | seed 000 §4, ref. 6 |
 //! | [`measure`] | edge curl and side-to-side width of knit swatches | seed 000 §3.1, §5.2.2, Figs. 5, 7 |
 //! | [`rest_shape`] | rest-shape bending compensation: repeat detection, relaxed characteristic rectangle, loop shapes applied to the whole chart | seed 000 §4.1, Fig. 6 |
 //! | [`experiment`] | swatch experiments: settle, clamp sets (rows, sides, columns), rib stretch, load cycles, drops onto a sphere with sticking contacts, drape measures | seed 000 §4.5, §5.2 |
@@ -25,11 +25,11 @@
 //! [`integrator::Simulator::new`] → [`integrator::Simulator::step`].
 //!
 //! Figures (`bench`): `rib-stretch` (Fig. 11, guarded reference curve), `curl` (Figs. 5, 7),
-//! `plasticity` (Fig. 9), `patterns-on-sphere` (Fig. 12) and `persistent-time-vs-error`.
+//! `plasticity` (Fig. 9), `patterns-on-sphere` (Fig. 12), `stitches` (Figs. 3–4: lace,
+//! shaping, a tube in the round) and `persistent-time-vs-error`.
 //!
-//! Not implemented: stacked stitches and the reserved chart stitches (YO, K2TOG, SSK, M1),
-//! so the parallel-stack friction spring of Eq. 5; row-end turns of a continuous yarn;
-//! contact breaking (pull-out, Fig. 13). Known limits, measured: with the paper's explicit
+//! Not implemented: contact breaking (pull-out, Fig. 13). The default construction is still
+//! one yarn per row ([`topology::Construction::FlatPerRow`]); the continuous yarn is opt-in. Known limits, measured: with the paper's explicit
 //! anchor update (the default) friction acts as a viscous brake of coefficient ≈ `k_f dt`,
 //! so forces depend on the time step; the friction return mapping
 //! ([`integrator::StepSettings::friction_return_mapping`], with [`forces::segment_floor`])

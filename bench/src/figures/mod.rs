@@ -22,6 +22,7 @@ pub mod persistent_curl;
 pub mod persistent_patterns_on_sphere;
 pub mod persistent_plasticity;
 pub mod persistent_rib_stretch;
+pub mod persistent_stitches;
 pub mod persistent_time_vs_error;
 pub mod rod_cantilever;
 pub mod rod_convergence;

@@ -33,13 +33,15 @@
 //! - one-yarn node (fabric edges): `k = 0` (not offset);
 //! - weave crossing (§3.2.1): the yarn on top ([`crate::topology::Crossing::warp_over`]) has
 //!   `k = +1`, the other `k = −1` (the normal points to the fabric front, `+z` in the layout);
-//! - knit stitch contact (§3.2.2), both of its nodes: the upper loop's leg has `k = +σ` and the
-//!   lower loop's head `k = −σ`, `σ = +1` for a knit and `−1` for a purl (front view): the
-//!   legs come from the back through the loop below and lie in front of its head, so on the
-//!   front of a knit the heads hide behind the legs of the next row (the same convention as
-//!   the layout's `±σδ` node offsets, [`crate::layout`]);
-//! - any other node with `m ≥ 2` passes (reserved for stacked stitches): slot `s` gets
-//!   `k = 2s − (m − 1)`, so consecutive slots are `2R` apart.
+//! - knit stitch contact (§3.2.2), both of its nodes: the stack front to back
+//!   ([`crate::topology::Topology::knit_stacks`]) gets `k = m − 1, m − 3, …, −(m − 1)`; for a
+//!   two-yarn stitch the upper loop's leg has `k = +σ` and the lower loop's head `k = −σ`,
+//!   `σ = +1` for a knit and `−1` for a purl (front view): the legs come from the back through
+//!   the loop below and lie in front of its head, so on the front of a knit the heads hide
+//!   behind the legs of the next row (the same convention as the layout's `±σδ` node
+//!   offsets, [`crate::layout`]); the heads a decrease stacks follow in stacking order;
+//! - any other node with `m ≥ 2` passes: slot `s` gets `k = 2s − (m − 1)`, so consecutive
+//!   slots are `2R` apart.
 //!
 //! Two yarns of a two-yarn node therefore end up exactly `2R` apart along the normal: tubes of
 //! radius `R` touching at the node.

@@ -4,8 +4,8 @@
 //!
 //! - **Nodes** are persistent contacts `q = (x, u₁ … uₙ)` (seed 000 §3.2): one position and one
 //!   sliding (arc-length) coordinate per yarn pass through the node. The data structures allow
-//!   any `n ≥ 1` (stacked stitches, §3.2.3, come later); the builders here make `n = 1`
-//!   (fabric edges) and `n = 2` nodes.
+//!   any `n ≥ 1`: `n = 1` at fabric edges, `n = 2` for simple stitches and crossings, `n > 2`
+//!   for the stacked stitches of decreases (§3.2.3).
 //! - **Yarns** are ordered lists of [`Pass`]es: which node the yarn goes through and which of
 //!   the node's sliding coordinates is this yarn's. The yarn is straight between consecutive
 //!   passes (a segment).
