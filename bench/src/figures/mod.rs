@@ -21,6 +21,7 @@ pub mod periodic_time_vs_error;
 pub mod persistent_curl;
 pub mod persistent_patterns_on_sphere;
 pub mod persistent_plasticity;
+pub mod persistent_pullout;
 pub mod persistent_rib_stretch;
 pub mod persistent_stitches;
 pub mod persistent_time_vs_error;

@@ -1,6 +1,6 @@
 //! Swatch experiments of the persistent-contact simulator (seed 000 §4.5, §5.2): the
-//! computations behind the `rib-stretch`, `curl`, `plasticity`, `patterns-on-sphere` and
-//! `persistent-time-vs-error` figures, usable from library code, tests and (clamp sets)
+//! computations behind the `rib-stretch`, `curl`, `plasticity`, `patterns-on-sphere`,
+//! `pullout` and `persistent-time-vs-error` figures, usable from library code, tests and (clamp sets)
 //! scene files.
 //!
 //! | module | contents | source |
@@ -11,12 +11,14 @@
 //! | [`cycles`] | loading–unloading cycles between side clamps, residual deformation | seed 000 §4.5, Fig. 9 |
 //! | [`drape`] | drape measures: projected-area ratio, corner drop, penetration | seed 000 §5.2.1 |
 //! | [`sphere_drop`] | swatches dropped onto a sphere with sticking contacts until at rest | seed 000 §5.2.1, Fig. 12 |
+//! | [`pullout`] | yarn pull-out: one row's yarn pulled out of a garter with its edges pinned, contacts breaking as the free end slides through them | seed 000 §5.2.4, Fig. 13 |
 //! | [`uniaxial`] | the virtual swatch test: quasi-static clamped uniaxial stretch, force and orthogonal compression | seed 002 §4.3 |
 
 pub mod clamps;
 pub mod cycles;
 pub mod drape;
 pub mod pull;
+pub mod pullout;
 pub mod sphere_drop;
 pub mod swatch;
 pub mod uniaxial;
@@ -24,6 +26,7 @@ pub mod uniaxial;
 pub use clamps::{ClampSet, Grid, SideClamps};
 pub use cycles::{CycleSample, Cycles, CyclesRun};
 pub use pull::{RibStretch, RibStretchRun, SettledRib, StretchSample};
+pub use pullout::{PullOut, PullOutRun, PullOutSample};
 pub use swatch::{
     ALPHA, LOOP_WIDTH, SwatchSettings, centroid, elastic_energies, kind_name, positions, run_steps,
     settled, swatch,

@@ -66,6 +66,8 @@ mod step;
 pub use settings::{SimError, StepReport, StepSettings};
 
 use crate::forces::compression::{CompressionEstimator, NodeCompression};
+use crate::forces::friction::{AnchoredSpring, ParallelSpring};
+use crate::forces::obstacle::Obstacle;
 use crate::forces::quadratic::{DampingSource, Quadratic};
 use crate::forces::wrapping::StitchWrap;
 use crate::forces::{ForceSet, Potential, TermKind, build_terms};
@@ -104,6 +106,26 @@ pub struct Simulator {
     /// Compression estimation for the Coulomb bound of friction (`None` without friction
     /// springs or with a constant slip force).
     compression: Option<CompressionEstimator>,
+    /// The force terms the simulator was built with (to rebuild them when contacts break).
+    forces: ForceSet,
+    /// The rest state the terms were built from (the layout), carried through contact
+    /// breaking.
+    q_rest: Vec<f64>,
+    /// The obstacles added so far.
+    obstacles: Vec<Obstacle>,
+}
+
+/// Everything [`Simulator::assemble`] builds a simulator from.
+struct Parts {
+    topology: Topology,
+    dofs: DofMap,
+    state: State,
+    q_rest: Vec<f64>,
+    fixed: Vec<bool>,
+    params: YarnParams,
+    forces: ForceSet,
+    settings: StepSettings,
+    obstacles: Vec<Obstacle>,
 }
 
 /// A lazily built Newton solver that clones as "not built yet".
@@ -130,14 +152,56 @@ impl Simulator {
         validate_input(&topology, layout, &params, &forces, &settings)?;
         let dofs = DofMap::new(&topology);
         let state = State::from_layout(&topology, &dofs, layout);
-        let mut elastic = build_terms(&topology, &dofs, &params, &forces, &state.q);
+        let mut fixed = vec![false; dofs.n_dofs()];
+        for (n, node) in topology.nodes.iter().enumerate() {
+            for (s, p) in node.passes.iter().enumerate() {
+                if p.sliding_pinned {
+                    fixed[dofs.u(n, s)] = true;
+                }
+            }
+        }
+        let q_rest = state.q.clone();
+        let parts = Parts {
+            topology,
+            dofs,
+            state,
+            q_rest,
+            fixed,
+            params,
+            forces,
+            settings,
+            obstacles: Vec::new(),
+        };
+        Self::assemble(parts, true)
+    }
+
+    /// Builds the terms, step forms and compression estimator of `parts`. With `ramp` the
+    /// wrapping rest angles start at the current angles (the ramp of
+    /// [`StepSettings::wrapping_ramp_time`]); without it at their full values.
+    fn assemble(parts: Parts, ramp: bool) -> Result<Self, SimError> {
+        let Parts {
+            topology,
+            dofs,
+            state,
+            q_rest,
+            fixed,
+            params,
+            forces,
+            settings,
+            obstacles,
+        } = parts;
+        let mut elastic = build_terms(&topology, &dofs, &params, &forces, &q_rest);
         elastic.check_dofs().map_err(SimError::Invalid)?;
         let mut wrap_ramp = Vec::new();
         for (k, wrap, d) in elastic.iter_mut_of::<StitchWrap, 12>() {
             let x: [f64; 12] = std::array::from_fn(|i| state.q[d[i]]);
-            let start = StitchWrap::angle(&x);
+            let start = if ramp {
+                StitchWrap::angle(&x)
+            } else {
+                wrap.rest_angle
+            };
             wrap_ramp.push((k, start, wrap.rest_angle));
-            if settings.wrapping_ramp_time > 0.0 {
+            if ramp && settings.wrapping_ramp_time > 0.0 {
                 wrap.rest_angle = start;
             }
         }
@@ -179,18 +243,11 @@ impl Simulator {
         } else {
             None
         };
-        let mut fixed = vec![false; dofs.n_dofs()];
-        for (n, node) in topology.nodes.iter().enumerate() {
-            for (s, p) in node.passes.iter().enumerate() {
-                if p.sliding_pinned {
-                    fixed[dofs.u(n, s)] = true;
-                }
-            }
-        }
-        Ok(Self {
+        let mut sim = Self {
             topology,
             dofs,
             params,
+            forces,
             settings,
             elastic,
             step,
@@ -199,11 +256,131 @@ impl Simulator {
             wrap_ramp,
             fixed,
             state,
+            q_rest,
+            obstacles: Vec::new(),
             solver: SolverCache::default(),
             time: 0.0,
             damping_built: None,
             compression,
-        })
+        };
+        sim.add_obstacles(&obstacles)?;
+        Ok(sim)
+    }
+
+    /// Contact breaking (seed 000 §5.2.4) without a restart: the yarn passes `(yarn, pass
+    /// index)` — each a yarn end — leave their nodes ([`Topology::without_passes`]) one after
+    /// another (indices refer to the topology after the earlier removals, so `(y, 0)` twice
+    /// removes yarn `y`'s first two passes), and the simulator continues on the new topology. Positions, velocities, sliding coordinates of
+    /// the remaining passes, pins, the rest state (stitch lengths, crossing rest angles),
+    /// friction anchors, obstacles and the time carry over; terms, step forms, compression
+    /// stacks and the Newton solver are rebuilt. Errors (and changes nothing) for a pass that
+    /// is not a yarn end or whose node has no other yarn, and during the wrapping ramp.
+    pub fn break_passes(&mut self, removed: &[(usize, usize)]) -> Result<(), SimError> {
+        if removed.is_empty() {
+            return Ok(());
+        }
+        if self.time < self.settings.wrapping_ramp_time
+            && self.elastic.count(TermKind::Wrapping) > 0
+        {
+            return Err(SimError::Invalid(format!(
+                "contacts can break only after the wrapping ramp ({} s; now {} s)",
+                self.settings.wrapping_ramp_time, self.time
+            )));
+        }
+        // One removal after another; compose the slot maps.
+        let mut topology = self.topology.clone();
+        let mut slots: Vec<Vec<Option<usize>>> = topology
+            .nodes
+            .iter()
+            .map(|n| (0..n.passes.len()).map(Some).collect())
+            .collect();
+        for r in removed {
+            let (next, map) = topology
+                .without_passes(std::slice::from_ref(r))
+                .map_err(|e| SimError::Invalid(e.to_string()))?;
+            for (n, node_slots) in slots.iter_mut().enumerate() {
+                for s in node_slots.iter_mut() {
+                    *s = s.and_then(|x| map[n][x]);
+                }
+            }
+            topology = next;
+        }
+        let dofs = DofMap::new(&topology);
+        let mut to_new = vec![None; self.dofs.n_dofs()];
+        for (n, node_slots) in slots.iter().enumerate() {
+            for k in 0..3 {
+                to_new[self.dofs.x(n) + k] = Some(dofs.x(n) + k);
+            }
+            for (s, t) in node_slots.iter().enumerate() {
+                to_new[self.dofs.u(n, s)] = t.map(|t| dofs.u(n, t));
+            }
+        }
+        let carry = |v: &[f64]| {
+            let mut out = vec![0.0; dofs.n_dofs()];
+            for (i, t) in to_new.iter().enumerate() {
+                if let Some(t) = *t {
+                    out[t] = v[i];
+                }
+            }
+            out
+        };
+        let state = State {
+            q: carry(&self.state.q),
+            v: carry(&self.state.v),
+        };
+        let q_rest = carry(&self.q_rest);
+        let mut fixed = vec![false; dofs.n_dofs()];
+        for (i, t) in to_new.iter().enumerate() {
+            if let Some(t) = *t {
+                fixed[t] = self.fixed[i];
+            }
+        }
+        for (n, node) in topology.nodes.iter().enumerate() {
+            for (s, p) in node.passes.iter().enumerate() {
+                if p.sliding_pinned {
+                    fixed[dofs.u(n, s)] = true;
+                }
+            }
+        }
+        // Friction anchors by their (new) coordinates.
+        let mut anchors = std::collections::HashMap::new();
+        for (k, spring) in self.elastic.iter_of::<AnchoredSpring, 1>() {
+            let d = self.elastic.dofs(k);
+            if let Some(t) = to_new[d[0]] {
+                anchors.insert((t, usize::MAX), spring.anchor);
+            }
+        }
+        for (k, pair) in self.elastic.iter_of::<ParallelSpring, 2>() {
+            let d = self.elastic.dofs(k);
+            if let (Some(a), Some(b)) = (to_new[d[0]], to_new[d[1]]) {
+                anchors.insert((a, b), pair.spring.anchor);
+            }
+        }
+        let parts = Parts {
+            topology,
+            dofs,
+            state,
+            q_rest,
+            fixed,
+            params: self.params,
+            forces: self.forces,
+            settings: self.settings.clone(),
+            obstacles: self.obstacles.clone(),
+        };
+        let mut sim = Self::assemble(parts, false)?;
+        for (_, spring, d) in sim.elastic.iter_mut_of::<AnchoredSpring, 1>() {
+            if let Some(&a) = anchors.get(&(d[0], usize::MAX)) {
+                spring.anchor = a;
+            }
+        }
+        for (_, pair, d) in sim.elastic.iter_mut_of::<ParallelSpring, 2>() {
+            if let Some(&a) = anchors.get(&(d[0], d[1])) {
+                pair.spring.anchor = a;
+            }
+        }
+        sim.time = self.time;
+        *self = sim;
+        Ok(())
     }
 
     /// Adds sphere and plane obstacles: one penalty-contact term per node and obstacle
@@ -221,6 +398,7 @@ impl Simulator {
         let terms =
             crate::forces::obstacle_terms(&self.topology, &self.dofs, &self.params, obstacles)
                 .map_err(SimError::Invalid)?;
+        self.obstacles.extend_from_slice(obstacles);
         // Appended to the elastic terms: the indices of the elastic terms (wrapping ramp,
         // damped terms) stay valid.
         self.elastic.append(terms);

@@ -49,6 +49,10 @@ use crate::chart::Chart;
 use crate::weave::WeavePattern;
 pub use knit::{Cell, KnitMap};
 
+/// Per node, the new slot of every old slot (`None` for a removed pass):
+/// [`Topology::without_passes`].
+pub type SlotMap = Vec<Vec<Option<usize>>>;
+
 /// How the rows of a knit are joined into yarns.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Construction {
@@ -501,6 +505,138 @@ impl Topology {
             .iter()
             .find(|p| p.yarn == yarn)
             .map(|p| p.index)
+    }
+
+    /// The topology after yarn passes `(yarn, pass index)` left their nodes: contact breaking
+    /// at a yarn end (seed 000 §5.2.4: "break the required contacts by turning 5-DoF nodes
+    /// into two 3-DoF nodes"). Every removed pass must be the first or the last pass of its
+    /// yarn (one per end), and its node must keep another yarn; node indices do not change.
+    /// Returns the new topology and, per node, the new slot of every old slot (`None` for a
+    /// removed pass).
+    ///
+    /// Stitch contacts lose the removed strands (a contact without its upper leg or without
+    /// any head is dropped); a node left with one yarn gets that yarn's sliding pinned (a
+    /// one-yarn node is a material point); the yarn's new end pass inherits the removed end
+    /// pass's pinning (a free end stays free). Errors name the offending pass.
+    pub fn without_passes(
+        &self,
+        removed: &[(usize, usize)],
+    ) -> Result<(Self, SlotMap), TopologyError> {
+        let bad = |m: String| Err(TopologyError::Invalid(m));
+        let mut drop_first = vec![false; self.yarns.len()];
+        let mut drop_last = vec![false; self.yarns.len()];
+        for &(y, i) in removed {
+            let Some(yarn) = self.yarns.get(y) else {
+                return bad(format!("no yarn {y}"));
+            };
+            let n = yarn.passes.len();
+            let end = if i == 0 {
+                &mut drop_first[y]
+            } else if i + 1 == n {
+                &mut drop_last[y]
+            } else {
+                return bad(format!(
+                    "yarn {y} pass {i} is not an end of the yarn (0 or {})",
+                    n.saturating_sub(1)
+                ));
+            };
+            if *end {
+                return bad(format!("yarn {y} pass {i} listed twice"));
+            }
+            *end = true;
+            if n < 3 {
+                return bad(format!("yarn {y} would keep fewer than two passes"));
+            }
+            let node = yarn.passes[i].node;
+            if self.nodes[node].passes.len() < 2 {
+                return bad(format!(
+                    "yarn {y} pass {i}: node {node} has no other yarn (a yarn cannot leave its own material point)"
+                ));
+            }
+        }
+        let keep = |y: usize, i: usize| {
+            !(drop_first[y] && i == 0 || drop_last[y] && i + 1 == self.yarns[y].passes.len())
+        };
+        let shift = |y: usize| usize::from(drop_first[y]);
+        // Surviving passes per yarn, with their old pinning.
+        let yarn_nodes: Vec<Vec<usize>> = self
+            .yarns
+            .iter()
+            .enumerate()
+            .map(|(y, yarn)| {
+                yarn.passes
+                    .iter()
+                    .enumerate()
+                    .filter(|&(i, _)| keep(y, i))
+                    .map(|(_, p)| p.node)
+                    .collect()
+            })
+            .collect();
+        let mut topo = Self::from_yarn_nodes(self.nodes.len(), &yarn_nodes, self.kind.clone());
+        topo.knit = self.knit.clone();
+        // Pinning: old flags; ends inherit the removed end's flag; one-yarn nodes pinned.
+        for (y, yarn) in self.yarns.iter().enumerate() {
+            let n = yarn.passes.len();
+            for (i, p) in yarn.passes.iter().enumerate() {
+                if !keep(y, i) {
+                    continue;
+                }
+                let mut pinned = self.nodes[p.node].passes[p.slot].sliding_pinned;
+                if drop_first[y] && i == 1 || drop_last[y] && i + 2 == n {
+                    let end = if i == 1 { 0 } else { n - 1 };
+                    let q = yarn.passes[end];
+                    pinned = self.nodes[q.node].passes[q.slot].sliding_pinned;
+                }
+                let np = topo.yarns[y].passes[i - shift(y)];
+                topo.nodes[np.node].passes[np.slot].sliding_pinned = pinned;
+            }
+        }
+        for node in &mut topo.nodes {
+            if node.passes.len() == 1 {
+                node.passes[0].sliding_pinned = true;
+            }
+        }
+        // Slot map: old (node, slot) → new slot.
+        let mut map: Vec<Vec<Option<usize>>> = self
+            .nodes
+            .iter()
+            .map(|n| vec![None; n.passes.len()])
+            .collect();
+        for (y, yarn) in self.yarns.iter().enumerate() {
+            for (i, p) in yarn.passes.iter().enumerate() {
+                if keep(y, i) {
+                    map[p.node][p.slot] = Some(topo.yarns[y].passes[i - shift(y)].slot);
+                }
+            }
+        }
+        let moved = |st: &Strand| -> Option<Strand> {
+            let [a, b] = st.indices();
+            (keep(st.yarn, a) && keep(st.yarn, b)).then(|| Strand {
+                index: st.index - shift(st.yarn),
+                ..*st
+            })
+        };
+        topo.stitch_contacts = self
+            .stitch_contacts
+            .iter()
+            .filter_map(|sc| {
+                let upper = moved(&sc.upper)?;
+                let lower: Vec<Strand> = sc.lower.iter().filter_map(moved).collect();
+                (!lower.is_empty()).then(|| StitchContact {
+                    upper,
+                    lower,
+                    ..sc.clone()
+                })
+            })
+            .collect();
+        topo.crossings = self
+            .crossings
+            .iter()
+            .filter(|c| topo.nodes[c.node].passes.len() >= 2)
+            .copied()
+            .collect();
+        topo.validate()?;
+        Ok((topo, map))
     }
 
     /// Every node of row boundary `b` of a knit (cells left to right, each `L lo, L hi,
