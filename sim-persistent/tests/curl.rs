@@ -16,7 +16,7 @@ use sim_persistent::integrator::{Simulator, StepSettings};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::measure::{EdgeCurl, course_width, edge_curl};
 use sim_persistent::params::YarnParams;
-use sim_persistent::topology::{Side, Topology, knit_node};
+use sim_persistent::topology::{Construction, Side, Topology, knit_node};
 
 /// What a settled swatch looks like.
 struct Settled {
@@ -86,7 +86,12 @@ fn side_curl(p: &[V3], w: usize, h: usize, b: usize) -> (f64, f64) {
 }
 
 fn settle(chart: &Chart, steps: usize) -> Settled {
-    let topo = Topology::knit(chart);
+    settle_as(chart, steps, Construction::FlatPerRow)
+}
+
+/// [`settle`] for a chart knitted as `construction`.
+fn settle_as(chart: &Chart, steps: usize, construction: Construction) -> Settled {
+    let topo = Topology::knit_with(chart, construction).unwrap();
     let mut params = YarnParams::sweater();
     params.gravity *= 0.0;
     let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).unwrap();
@@ -261,6 +266,33 @@ fn garter_interior_stays_flat() {
     }
     let c = garter.curl;
     assert!(c.left.abs() < 0.15 && c.right.abs() < 0.15, "{c:?}");
+}
+
+/// Garter's edge roll comes from the row ends tied to the fabric (one yarn per row, the
+/// default construction), not from garter: knitted with one continuous yarn that turns at the
+/// row ends (`Construction::Flat`, as garter is really knitted) the side edges of an 8 × 5
+/// garter stay within 0.5 rad (measured −0.28/+0.27 rad) where the tied rows roll by more than
+/// 1 rad (measured +1.27/+1.21), and no row boundary of a 6 × 9 garter curls by more than
+/// 1 rad at its sides (measured ≤ 0.75; tied rows: up to 2.75).
+#[test]
+fn garter_edges_stay_flat_with_a_continuous_yarn() {
+    let chart = Chart::garter(8, 5).unwrap();
+    let tied = settle(&chart, 300);
+    let turning = settle_as(&chart, 300, Construction::Flat);
+    report("garter 8×5, one yarn per row", &tied);
+    report("garter 8×5, continuous yarn", &turning);
+    assert!(tied.curl.left.min(tied.curl.right) > 1.0, "{:?}", tied.curl);
+    let c = turning.curl;
+    assert!(c.left.abs().max(c.right.abs()) < 0.5, "{c:?}");
+    assert!(c.bottom.abs().max(c.top.abs()) < 0.5, "{c:?}");
+    let tall = settle_as(&Chart::garter(6, 9).unwrap(), 300, Construction::Flat);
+    report("garter 6×9, continuous yarn", &tall);
+    for (b, &(l, r)) in tall.side_curls.iter().enumerate() {
+        assert!(
+            l.abs().max(r.abs()) < 1.0,
+            "boundary {b}: side curls {l:+.3}/{r:+.3} rad"
+        );
+    }
 }
 
 /// A 2 × 2 rib (8 stitches wide, 6 rows) compresses in width: each pair of knit columns and

@@ -403,6 +403,78 @@ fn assembled_potential_of_a_swatch() {
     );
 }
 
+/// The assembled potential of charts with stacked stitches — every stitch kind, knitted flat
+/// with one continuous yarn and in the round (stacked (3 + n)-DoF nodes, the parallel-pair
+/// friction springs, reversed rows, the round's closing loop contact) — at a perturbed layout:
+/// gradient vs central differences of the energy on every DOF, Hessian vs central differences
+/// of the gradient on every column.
+#[test]
+fn assembled_potential_of_stacked_stitches() {
+    use sim_persistent::topology::Construction;
+    let chart =
+        Chart::parse("K7\nK K2TOG YO SSK M1L K KFB\nP K3TOG S2KP SL\nK YO K2 YO K\n").unwrap();
+    for construction in [Construction::Flat, Construction::Round] {
+        let topo = Topology::knit_with(&chart, construction).unwrap();
+        assert!(topo.nodes.iter().any(|n| n.passes.len() == 4));
+        let params = YarnParams::sweater();
+        let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).unwrap();
+        let dofs = DofMap::new(&topo);
+        let rest = State::from_layout(&topo, &dofs, &layout);
+        let forces = ForceSet {
+            loop_contact: true,
+            ..ForceSet::default()
+        };
+        let pot = build_terms(&topo, &dofs, &params, &forces, &rest.q);
+        assert!(pot.count(TermKind::ParallelFriction) > 0);
+        let mut q = rest.q.clone();
+        for n in 0..topo.nodes.len() {
+            let i = dofs.x(n);
+            for k in 0..3 {
+                q[i + k] += 1e-4 * ((7 * n + 3 * k) as f64 * 0.37).sin();
+            }
+            for s in 0..topo.nodes[n].passes.len() {
+                q[dofs.u(n, s)] += 5e-5 * ((5 * n + s) as f64 * 0.71).cos();
+            }
+        }
+        let mut asm = Assembler::new(&pot).unwrap();
+        let assembled = asm.assemble(&pot, &q, false).unwrap();
+        let gradient = assembled.gradient.to_vec();
+        let n = pot.n_dofs();
+        let h = assembled.hessian;
+        let mut dense = vec![0.0; n * n];
+        for j in 0..n {
+            let col = h.col_ptr()[j]..h.col_ptr()[j + 1];
+            for (idx, &i) in h.row_idx()[col.clone()].iter().enumerate() {
+                let v = h.val()[col.start + idx];
+                dense[i + n * j] = v;
+                dense[j + n * i] = v;
+            }
+        }
+        let g_typ = gradient.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let opts = FdOptions {
+            step: 1e-8,
+            rtol: 1e-6,
+            atol: 1e-9 * g_typ,
+        };
+        let ge = check_gradient(|x: &[f64]| pot.energy(x), &gradient, &q, &opts)
+            .unwrap_or_else(|e| panic!("{construction:?}: {e}"));
+        let mut asm2 = Assembler::new(&pot).unwrap();
+        let grad_cell =
+            std::cell::RefCell::new(|x: &[f64]| asm2.gradient(&pot, x).unwrap().1.to_vec());
+        let h_typ = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let hopts = FdOptions {
+            step: 1e-8,
+            rtol: 1e-5,
+            atol: 1e-9 * h_typ,
+        };
+        let he = check_hessian(|x| (grad_cell.borrow_mut())(x), &dense, &q, &hopts)
+            .unwrap_or_else(|e| panic!("{construction:?}: {e}"));
+        eprintln!(
+            "{construction:?} stacked chart: {n} DOFs, gradient rel. error {ge:.2e}, Hessian rel. error {he:.2e}"
+        );
+    }
+}
+
 /// The sign convention of ψ₀ (`forces::wrapping`, "Sign of ψ₀ per contact"): on the layout
 /// of a 1 × 1 rib (knit and purl columns), fold each pair's segments as in a real knit —
 /// horizontal segments (sinker, head) to the back and vertical ones (legs) to the front by

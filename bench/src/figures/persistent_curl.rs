@@ -6,6 +6,7 @@
 
 use sim_persistent::chart::Chart;
 use sim_persistent::measure::{course_width, edge_curl};
+use sim_persistent::topology::Construction;
 
 use crate::plot::save_images;
 use crate::studies::persistent::render;
@@ -24,20 +25,23 @@ pub fn spec() -> FigureSpec {
     }
 }
 
-/// (name, chart) of the swatches: quick mode uses fewer stitches.
+/// (name, chart) of the swatches: quick mode uses fewer stitches (full: at least 20 × 20).
 fn swatches(quick: bool) -> anyhow::Result<Vec<(&'static str, Chart)>> {
-    let n = if quick { 6 } else { 12 };
+    let n = if quick { 6 } else { 20 };
     Ok(vec![
         ("stockinette", Chart::stockinette(n, n)?),
         // An odd row count: the contact boundaries hold as many knit as purl stitches.
-        ("garter", Chart::garter(n, n - 1)?),
+        ("garter", Chart::garter(n, n + 1)?),
         ("rib 2×2", Chart::rib(n + 2, n, 2, 2)?),
     ])
 }
 
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
+    // Knitted as they are knitted: one continuous yarn turning at the row ends (with one
+    // yarn per row and tied ends, garter's side edges roll by ≈ 1.2 rad: tests/curl.rs).
     let settings = SwatchSettings {
         settle_time: if ctx.quick { 0.3 } else { 0.5 },
+        construction: Construction::Flat,
         ..SwatchSettings::default()
     };
     let swatches = swatches(ctx.quick)?;
@@ -121,6 +125,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         config: serde_json::json!({
             "patterns": swatches.iter().map(|(n, c)| format!("{n} {}x{}", c.width(), c.height())).collect::<Vec<_>>(),
             "yarn": "Table 1 sweater (R = 0.75 mm), loop width 3 mm, no gravity, no pins",
+            "construction": "flat, one continuous yarn",
             "damping_alpha": sim_persistent::experiment::ALPHA,
             "dt_s": settings.dt, "settle_time_s": settings.settle_time,
         }),

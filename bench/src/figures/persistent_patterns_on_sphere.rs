@@ -93,7 +93,7 @@ impl Setup {
         let (n, sphere_radius, settle_time, max_drop_time) = if quick {
             (6, 6e-3, 0.12, 0.4)
         } else {
-            (12, 12e-3, 0.3, 1.5)
+            (20, 20e-3, 0.3, 1.5)
         };
         Self {
             n,
@@ -108,7 +108,7 @@ impl Setup {
 
 /// (name, topology) of the patterns.
 fn patterns(n: usize) -> anyhow::Result<Vec<(String, Topology)>> {
-    let garter = Chart::garter(n, n - 1)?;
+    let garter = Chart::garter(n, n + 1)?;
     let rib = Chart::rib(n + 2, n, 2, 2)?;
     Ok(vec![
         (

@@ -42,12 +42,12 @@ pub fn spec() -> FigureSpec {
     }
 }
 
-/// The experiment of the figure (quick: 8 × 4 stitches; full: 16 × 10).
+/// The experiment of the figure (quick: 8 × 4 stitches; full: 20 × 20).
 pub fn experiment(quick: bool) -> RibStretch {
     let (width, height, extension) = if quick {
         (8, 4, 24e-3)
     } else {
-        (16, 10, 48e-3)
+        (20, 20, 60e-3)
     };
     RibStretch {
         width,

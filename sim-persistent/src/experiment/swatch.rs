@@ -11,7 +11,7 @@ use crate::forces::{ForceSet, TermKind};
 use crate::integrator::{Simulator, StepSettings};
 use crate::layout::{Layout, LayoutParams};
 use crate::params::YarnParams;
-use crate::topology::Topology;
+use crate::topology::{Construction, Topology};
 use anyhow::Context;
 use rod::geometry::V3;
 
@@ -38,6 +38,8 @@ pub struct SwatchSettings {
     pub friction_return_mapping: usize,
     /// The yarn.
     pub params: YarnParams,
+    /// How the chart is knitted (default: one yarn per row).
+    pub construction: Construction,
 }
 
 impl Default for SwatchSettings {
@@ -54,6 +56,7 @@ impl Default for SwatchSettings {
                 ..ForceSet::default()
             },
             params,
+            construction: Construction::default(),
         }
     }
 }
@@ -79,7 +82,7 @@ impl SwatchSettings {
 
 /// A swatch of `chart` in its flat layout.
 pub fn swatch(chart: &Chart, settings: &SwatchSettings) -> anyhow::Result<(Simulator, Layout)> {
-    let topo = Topology::knit(chart);
+    let topo = Topology::knit_with(chart, settings.construction)?;
     let layout = Layout::new(
         &topo,
         &LayoutParams::new(LOOP_WIDTH, settings.params.radius),
