@@ -23,7 +23,7 @@
 //! | `K2TOG` | knit two together | 2 | 1 | right-leaning decrease, left loop on top of the stack |
 //! | `SSK` | slip, slip, knit | 2 | 1 | left-leaning decrease, right loop on top |
 //! | `K3TOG` | knit three together | 3 | 1 | right-leaning double decrease, stack left to right |
-//! | `S2KP` | slip 2 together, k1, pass over | 3 | 1 | centred double decrease, centre loop on top |
+//! | `S2KP` | slip 2 together, k1, pass over | 3 | 1 | centred double decrease, centre loop on top, left loop at the bottom |
 //! | `P2TOG`, `SSP`, `P3TOG`, `S2PP` | purl counterparts | 2, 2, 3, 3 | 1 | the same stacks, purled |
 //! | `M1L`, `M1R` | make one, left / right | 0 | 1 | a knit loop through the running bar between two loops of the row below |
 //! | `M1LP`, `M1RP` | make one purlwise | 0 | 1 | the same, purled |
@@ -38,6 +38,9 @@
 //!
 //! Rules checked by the parser (errors name the line and column of the stitch):
 //! - Row 0 is worked into the cast-on and takes `K` and `P` only.
+//! - In the round, an `M1` may not lift the bar between the last and the first loop of the
+//!   round below (the parser does not know the construction; the first stitch of a round
+//!   needs a worked loop on its left).
 //! - A stitch may not need more loops than are left of the row below, and a row must work
 //!   every loop of the row below.
 //! - `M1*` lifts the bar between two loops of the row below, so it needs a worked loop on its
@@ -230,21 +233,25 @@ impl Stitch {
     }
 
     /// The stacking order of a decrease's source loops, front (top) first, as indices into
-    /// its sources (left to right): `K2TOG` `[0, 1]` (the left loop lies on top), `SSK`
-    /// `[1, 0]`, `K3TOG` `[0, 1, 2]`, `S2KP` `[1, 0, 2]` (the centre loop on top); purl
-    /// counterparts alike. One source: `[0]`.
+    /// its sources (left to right, front view): `K2TOG` `[0, 1]` (the left loop lies on
+    /// top), `SSK` `[1, 0]`, `K3TOG` `[0, 1, 2]`, `S2KP` `[1, 2, 0]` (a right-side row is
+    /// worked from the right: the centre and right loops are slipped together — the centre
+    /// ends on top — and passed over the left loop, knitted, at the bottom); purl
+    /// counterparts alike (seen from the front, a P2TOG's left loop lies in front of its
+    /// right one, like a K2TOG's). One source: `[0]`.
     pub fn stack_order(self) -> &'static [usize] {
         use Stitch::*;
         match self {
             K2tog | P2tog => &[0, 1],
             Ssk | Ssp => &[1, 0],
             K3tog | P3tog => &[0, 1, 2],
-            S2kp | S2pp => &[1, 0, 2],
+            S2kp | S2pp => &[1, 2, 0],
             _ => &[0],
         }
     }
 
-    /// The stitch seen from the back (knit ↔ purl counterparts; yarn-overs and slips stay).
+    /// The purl counterpart of a knit-type stitch and back (same sources, same stacking
+    /// order; yarn-overs and slips stay).
     pub fn flipped(self) -> Self {
         use Stitch::*;
         match self {
@@ -361,7 +368,7 @@ fn check_counts(rows: &[Vec<Stitch>]) -> Result<(), CountError> {
         let Some(available) = below else {
             if let Some(i) = row
                 .iter()
-                .position(|s| s.source() != Source::Loops(1) || *s == Stitch::Slip)
+                .position(|s| !matches!(s, Stitch::Knit | Stitch::Purl))
             {
                 return Err(err(
                     i,

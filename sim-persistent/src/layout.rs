@@ -147,6 +147,9 @@ fn knit_positions(map: &KnitMap, params: &LayoutParams, n_nodes: usize) -> Vec<V
     let mut pos = vec![V3::zeros(); n_nodes];
     let a = 0.5 * params.contact_length * std::f64::consts::FRAC_1_SQRT_2;
     let round = map.construction == Construction::Round;
+    // Rows are centred on the cast-on's centre (knit.rs), which maps to the angle 0 of every
+    // round, so a round of a different width does not rotate against its neighbours.
+    let centre = 0.5 * map.loops_per_row.first().copied().unwrap_or(0) as f64 * params.loop_width;
     for (b, cells) in map.boundaries.iter().enumerate() {
         let y = b as f64 * params.row_height;
         for cell in cells {
@@ -163,7 +166,7 @@ fn knit_positions(map: &KnitMap, params: &LayoutParams, n_nodes: usize) -> Vec<V
                     let p = if round {
                         // Unroll: x along the circumference, z outwards.
                         let radius = loops * params.loop_width / std::f64::consts::TAU;
-                        let phi = p.x / (radius + 1e-300);
+                        let phi = (p.x - centre) / (radius + 1e-300);
                         let r = radius + p.z;
                         V3::new(r * phi.sin(), p.y, r * phi.cos())
                     } else {

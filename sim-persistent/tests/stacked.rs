@@ -82,6 +82,15 @@ fn decreases_stack_their_loops_on_the_nodes_of_one_stitch() {
     let (layers, parallel) = stacks[sc.nodes[1]].clone().unwrap();
     assert_eq!(parallel, [true, false]);
     assert_eq!(*layers.last().unwrap(), topo.strand_slots(&sc.upper)[1].1);
+    // Seen from the front a P2TOG's left loop lies in front of its right one, as a K2TOG's.
+    let p2tog = &topo.stitch_contacts[0];
+    assert!(p2tog.lower[0].index < p2tog.lower[1].index);
+    assert_eq!(p2tog.front_to_back()[0], p2tog.lower[0]);
+    // S2KP: the centre loop on top, the left one at the bottom.
+    let topo = topology("K3\nS2KP\n", Construction::FlatPerRow);
+    let lower = &topo.stitch_contacts[0].lower;
+    let pos = |st: &sim_persistent::topology::Strand| st.index;
+    assert!(pos(&lower[2]) < pos(&lower[0]) && pos(&lower[0]) < pos(&lower[1]));
     // SSK stacks its right loop on top.
     let topo = topology("K2\nSSK\n", Construction::FlatPerRow);
     let lower = &topo.stitch_contacts[0].lower;
@@ -96,9 +105,15 @@ fn increases_yarn_overs_and_slips_make_the_documented_contacts() {
     // Row 1 makes 5 loops; 4 are pulled through something (YO is not).
     assert_eq!(topo.boundary_nodes(1).len(), 4 * 4);
     assert_eq!(topo.boundary_nodes(2).len(), 4 * 5);
-    // The KFB's source head runs through two cells: 8 passes of yarn 0 on boundary 1.
+    // The KFB's source head runs through two cells: yarn 0 passes boundary 1 4 + 8 + 4 times.
     let k = topo.knit.as_ref().unwrap();
     assert_eq!(k.boundaries[1].len(), 4);
+    let on_b1: usize = topo
+        .boundary_nodes(1)
+        .iter()
+        .map(|&n| topo.nodes[n].passes.iter().filter(|p| p.yarn == 0).count())
+        .sum();
+    assert_eq!(on_b1, 16);
     // M1 through the bar: the bar of row 0 (yarn 0) is lifted into the M1's cell.
     let topo = topology("K2\nK M1L K\n", Construction::FlatPerRow);
     let cell = &topo.knit.as_ref().unwrap().boundaries[1][1];
@@ -157,6 +172,66 @@ fn continuous_yarn_turns_at_the_row_ends() {
         (xa.x - xb.x).abs() < 0.5 * LOOP_WIDTH && xb.y > xa.y,
         "{xa:?} → {xb:?}"
     );
+}
+
+/// Charts a continuous flat yarn cannot knit are refused with the reason; heads of different
+/// rows that run opposite ways are not a parallel stack.
+#[test]
+fn continuous_yarn_limits_and_anti_parallel_heads() {
+    let chart = Chart::parse("K3\nYO K3\nK4\n").unwrap();
+    let e = Topology::knit_with(&chart, Construction::Flat)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("yarn-over") && e.contains("flat"), "{e}");
+    Topology::knit_with(&chart, Construction::FlatPerRow).unwrap();
+    // A slipped loop of row 0 stacked with a loop of row 1 (the yarn runs the other way).
+    let topo = topology("K3\nK SL K\nK2TOG K\n", Construction::Flat);
+    let sc = topo
+        .stitch_contacts
+        .iter()
+        .find(|sc| sc.lower.len() == 2)
+        .unwrap();
+    assert_ne!(sc.lower[0].forward, sc.lower[1].forward);
+    let (_, parallel) = topo.knit_stacks()[sc.nodes[0]].clone().unwrap();
+    assert!(parallel.iter().all(|p| !p), "{parallel:?}");
+    // Rounds need three loops each.
+    let narrow = Chart::parse("K4\nK2TOG K2TOG\n").unwrap();
+    assert!(Topology::knit_with(&narrow, Construction::Round).is_err());
+}
+
+/// A round that narrows (12 → 9 loops) stays aligned with the round below: every cell lies
+/// within 0.6 rad (about one loop) of the cell its loop is pulled through.
+#[test]
+fn a_narrowing_tube_does_not_twist() {
+    let topo = topology(
+        "K12\nK12\nK K2TOG K3 K2TOG K SSK K\nK9\n",
+        Construction::Round,
+    );
+    let layout = Layout::new(&topo, &LayoutParams::new(LOOP_WIDTH, 0.75e-3)).unwrap();
+    let k = topo.knit.as_ref().unwrap();
+    let angle = |b: usize, c: usize| {
+        let cell = &k.boundaries[b][c];
+        let p: nalgebra::Vector3<f64> = cell
+            .nodes
+            .iter()
+            .flatten()
+            .map(|&n| layout.positions[n])
+            .sum();
+        p.x.atan2(p.z)
+    };
+    let mut checked = 0;
+    for (b, cells) in k.boundaries.iter().enumerate() {
+        for (c, cell) in cells.iter().enumerate() {
+            if cell.down != (b, c) {
+                let d = angle(b, c) - angle(cell.down.0, cell.down.1);
+                let d = (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                    - std::f64::consts::PI;
+                assert!(d.abs() < 0.6, "boundary {b} cell {c}: {d} rad");
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 20);
 }
 
 #[test]

@@ -33,6 +33,9 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     test.snapshots = vec![0.0, distance / 3.0, 2.0 * distance / 3.0, distance];
     let start = std::time::Instant::now();
     let run = test.run()?;
+    if let Some(f) = &run.failure {
+        anyhow::bail!("the pull failed: {f}");
+    }
     let seconds = start.elapsed().as_secs_f64();
     let mut data = Table::new(&["pulled_mm", "force_mN", "passes", "stitch_contacts"]);
     for s in &run.samples {
@@ -85,17 +88,17 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 1e3 * distance
             ),
             format!(
-                "{} passes left their nodes ({} → {} passes of the yarn, {} → {} stitch contacts); {} Newton iterations, {seconds:.1} s{}",
+                "{} passes left their nodes while settling, {} during the pull ({} → {} passes of the yarn, {} → {} stitch contacts){}; {} Newton iterations, {seconds:.1} s",
+                run.broken_settling,
                 run.broken,
                 first.passes,
                 last.passes,
                 first.contacts,
                 last.contacts,
+                run.out_at
+                    .map(|d| format!("; the yarn is out at {:.1} mm", 1e3 * d))
+                    .unwrap_or_default(),
                 run.newton_iterations,
-                run.stopped
-                    .as_ref()
-                    .map(|s| format!("; stopped: {s}"))
-                    .unwrap_or_default()
             ),
         ),
         (

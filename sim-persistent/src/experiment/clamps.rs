@@ -173,6 +173,14 @@ pub struct SideClamps {
 impl SideClamps {
     /// Pins both clamps of `sim`.
     pub fn pin(sim: &mut Simulator, w: usize, h: usize) -> anyhow::Result<Self> {
+        if let (crate::topology::FabricKind::Knit(chart), Some(map)) =
+            (&sim.topology().kind, &sim.topology().knit)
+        {
+            anyhow::ensure!(
+                chart.is_rectangular() && map.construction != Construction::Round,
+                "side clamps need a rectangular K/P chart knitted flat"
+            );
+        }
         let grid = Grid::Knit {
             width: w,
             height: h,

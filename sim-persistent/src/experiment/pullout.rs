@@ -73,10 +73,15 @@ pub struct PullOutRun {
     /// `(pulled distance, simulator)` at the requested snapshots (the first is the settled
     /// swatch before the pull).
     pub snapshots: Vec<(f64, Simulator)>,
-    /// Passes that left their node.
+    /// Passes that left their node during the pull.
     pub broken: usize,
-    /// Why the pull stopped before `distance`, if it did.
-    pub stopped: Option<String>,
+    /// Passes that left their node while the pinned swatch settled, before the pull: the free
+    /// end starts at `u = 0` and slips under the settling tension.
+    pub broken_settling: usize,
+    /// Pulled distance (m) at which the yarn was out (only the handle and one pass left).
+    pub out_at: Option<f64>,
+    /// The step that failed, if one did (the samples end before it).
+    pub failure: Option<String>,
     /// Newton iterations over the pull.
     pub newton_iterations: usize,
 }
@@ -170,7 +175,8 @@ impl PullOut {
         let (mut sim, yarn, handle) = self.build()?;
         let s = &self.settings;
         run_steps(&mut sim, s.steps(s.settle_time)).context("settling the pinned swatch")?;
-        let mut broken = break_free_end(&mut sim, yarn)?;
+        let broken_settling = break_free_end(&mut sim, yarn)?;
+        let mut broken = 0;
         let mut snapshots = Vec::new();
         let mut wanted: Vec<f64> = self.snapshots.clone();
         wanted.sort_by(f64::total_cmp);
@@ -178,7 +184,7 @@ impl PullOut {
         let steps = s.steps(self.distance / self.speed);
         let dx = self.distance / steps as f64;
         let mut samples = Vec::with_capacity(steps);
-        let mut stopped = None;
+        let (mut failure, mut out_at) = (None, None);
         let mut newton_iterations = 0;
         for k in 0..=steps {
             let pulled = k as f64 * dx;
@@ -187,7 +193,7 @@ impl PullOut {
                 match sim.step() {
                     Ok(r) => newton_iterations += r.newton_iterations,
                     Err(e) => {
-                        stopped = Some(format!("step at {pulled:.4} m pulled failed: {e}"));
+                        failure = Some(format!("step at {pulled:.4} m pulled failed: {e}"));
                         break;
                     }
                 }
@@ -206,7 +212,7 @@ impl PullOut {
                 next += 1;
             }
             if passes <= 1 {
-                stopped = Some(format!("the yarn is out at {pulled:.4} m pulled"));
+                out_at = Some(pulled);
                 break;
             }
         }
@@ -220,7 +226,9 @@ impl PullOut {
             samples,
             snapshots,
             broken,
-            stopped,
+            broken_settling,
+            out_at,
+            failure,
             newton_iterations,
         })
     }

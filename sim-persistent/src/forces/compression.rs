@@ -23,8 +23,10 @@
 //! active sets ([`CompressionSystem::nnls`]). Both are kept so they can be compared.
 //!
 //! **At the nodes of a simulation** ([`CompressionEstimator`]), for every node with `n ≥ 2`
-//! yarns (slots in [`crate::topology::Node::passes`] order, yarn `i` = slot `i`):
+//! yarns:
 //!
+//! - *Stack order.* Yarn `i` of Eq. 3 is the `i`-th layer of the node's stack from the back
+//!   (slot order only for weave crossings), see *Stacks* below.
 //! - *Normals.* A plane is fitted to the node and its neighbours along all its yarns (the
 //!   eigenvector of the smallest eigenvalue of their covariance, §4.3). Its normal is
 //!   oriented towards the fabric's material front `ĉ × ŵ` (course direction × wale
@@ -38,8 +40,9 @@
 //! - *Forces* `Fᵢ` (N): minus the position gradient, at the node, of the terms that belong
 //!   to yarn `i` — its stretch segments and its bending stencils, plus stitch wrapping for
 //!   knits (§4.3). A wrapping pair couples two yarns; its force on a node is given to the
-//!   yarn of the pair's wing that ends at that node (the wing `q₀q₄` carries the forces on
-//!   `q₀` and `q₄`, the wing `q₁q₃` those on `q₁` and `q₃`; [`super::wrapping`]). Gravity
+//!   yarn pass of the pair's wing that ends at that node (the wing `q₀q₄` carries the forces
+//!   on `q₀` and `q₄`, the wing `q₁q₃` those on `q₁` and `q₃`; [`super::wrapping::wrap_wings`]:
+//!   the heads a decrease stacks join the same two nodes, so the wing's own pass is kept). Gravity
 //!   is left out, as in the paper (stretch and bending, plus wrapping): the weight of the
 //!   yarn next to a node (`ρ g ℓ ≈ 5e-5 N` for the Table 1 sweater yarn and a 3 mm segment)
 //!   is not a contact force between the stacked yarns and is small against the ≈ 1 mN yarn
@@ -272,6 +275,9 @@ pub struct CompressionEstimator {
     yarn_slots: Vec<Vec<(usize, usize)>>,
     /// Per yarn: its node sequence.
     yarn_nodes: Vec<Vec<usize>>,
+    /// The wing passes of every wrapping pair in the order the wrapping terms are built
+    /// ([`super::wrapping::wrap_wings`]).
+    wings: Vec<[[(usize, usize); 2]; 2]>,
 }
 
 impl CompressionEstimator {
@@ -363,7 +369,13 @@ impl CompressionEstimator {
                 parallel,
             });
         }
+        let wings = topology
+            .stitch_contacts
+            .iter()
+            .flat_map(|sc| super::wrapping::wrap_wings(topology, sc))
+            .collect();
         Ok(Self {
+            wings,
             stacks,
             stack_of_node,
             owner,
@@ -452,6 +464,7 @@ impl CompressionEstimator {
             }
         };
         let block = |g: &[f64], i: usize| V3::new(g[i], g[i + 1], g[i + 2]);
+        let mut wrap_index = 0;
         for k in 0..terms.len() {
             let d = terms.dofs(k);
             match terms.kind(k) {
@@ -490,9 +503,20 @@ impl CompressionEstimator {
                     let d: &[usize; 12] = d.try_into().expect("12 DOFs");
                     let (_, g) = s.energy_and_gradient(&gather(q, d));
                     let node = |k: usize| self.owner[d[3 * k]].0;
+                    // The wings' own passes when this term is the next one built from the
+                    // stitch contacts; else (terms built otherwise) the yarn joining the nodes.
+                    let own = self.wings.get(wrap_index).filter(|w| {
+                        [w[0][0].0, w[1][0].0, w[0][1].0, w[1][1].0]
+                            == [node(0), node(1), node(2), node(3)]
+                    });
+                    wrap_index += 1;
                     // Wings (q₀, q₄) and (q₁, q₃): blocks (0, 2) and (1, 3).
-                    for (a, b) in [(0, 2), (1, 3)] {
-                        if let Some((sa, sb)) = self.joining_yarn(node(a), node(b)) {
+                    for (w, (a, b)) in [(0, 2), (1, 3)].into_iter().enumerate() {
+                        let slots = match own {
+                            Some(wings) => Some((wings[w][0].1, wings[w][1].1)),
+                            None => self.joining_yarn(node(a), node(b)),
+                        };
+                        if let Some((sa, sb)) = slots {
                             add(node(a), sa, block(g.as_slice(), 3 * a));
                             add(node(b), sb, block(g.as_slice(), 3 * b));
                         }

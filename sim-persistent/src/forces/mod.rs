@@ -352,7 +352,8 @@ pub fn obstacle_terms(
 
 /// The elastic and gravity terms of a fabric (everything but the per-step inertia and
 /// damping), selected by `forces`. Rest lengths of stitch contacts (Eqs. 2 and 6) and the
-/// initial friction anchors (Eq. 5; one per free sliding coordinate of a node with ≥ 2 yarns) are
+/// initial friction anchors (Eq. 5; one per free sliding coordinate of a node with ≥ 2 yarns
+/// that has a non-parallel contact, one per parallel pair of stacked heads) are
 /// taken from the coordinates `q_rest` (normally the initial layout). Wrapping terms (knits
 /// only) get their full rest angle `± ψ₀` ([`wrapping::rest_angle_sign`]); the simulator
 /// ramps it in ([`crate::integrator::StepSettings::wrapping_ramp_time`]). Crossing-shear

@@ -322,3 +322,35 @@ pub fn wrap_pairs(topology: &Topology, contact: &StitchContact) -> Vec<Option<[u
         })
         .collect()
 }
+
+/// The yarn passes of the wings of [`wrap_pairs`], pair for pair (the `None` pairs left out,
+/// so entry `k` belongs to the `k`-th wrapping term [`crate::forces::build_terms`] builds from
+/// `contact`): `[[(node, slot) at q₀, at q₄], [(node, slot) at q₁, at q₃]]` of Fig. 8 for the
+/// pair's two wings — the upper leg's wing and the wing of the head it wraps with. The
+/// compression estimate gives each wing's force to its own yarn pass: the heads of a decrease
+/// join the same two nodes, so the nodes alone do not say which head a wing belongs to.
+pub fn wrap_wings(topology: &Topology, contact: &StitchContact) -> Vec<[[(usize, usize); 2]; 2]> {
+    let up = &contact.upper;
+    let up_slots = topology.strand_slots(up);
+    contact
+        .lower
+        .iter()
+        .flat_map(|low| {
+            let low_slots = topology.strand_slots(low);
+            let wing = |at: (usize, usize), beyond: Option<(usize, usize)>| Some([at, beyond?]);
+            let pair =
+                |a: Option<[(usize, usize); 2]>, b: Option<[(usize, usize); 2]>| Some([a?, b?]);
+            [
+                pair(
+                    wing(up_slots[0], topology.strand_outer_pass(up, 0)),
+                    wing(low_slots[1], topology.strand_outer_pass(low, 1)),
+                ),
+                pair(
+                    wing(up_slots[1], topology.strand_outer_pass(up, 1)),
+                    wing(low_slots[0], topology.strand_outer_pass(low, 0)),
+                ),
+            ]
+        })
+        .flatten()
+        .collect()
+}

@@ -273,8 +273,13 @@ impl Simulator {
     /// removes yarn `y`'s first two passes), and the simulator continues on the new topology. Positions, velocities, sliding coordinates of
     /// the remaining passes, pins, the rest state (stitch lengths, crossing rest angles),
     /// friction anchors, obstacles and the time carry over; terms, step forms, compression
-    /// stacks and the Newton solver are rebuilt. Errors (and changes nothing) for a pass that
-    /// is not a yarn end or whose node has no other yarn, and during the wrapping ramp.
+    /// stacks and the Newton solver are rebuilt; friction springs that did not exist before
+    /// start unstretched at the current state, and newly pinned coordinates at rest. Errors
+    /// (and changes nothing) for a pass that is not a yarn end or whose node has no other
+    /// yarn, during the wrapping ramp, and when a node would keep several yarns outside any
+    /// stitch contact (no stacking order for its compression): remove a yarn from a stitch
+    /// contact with both of its passes (`(y, 0)` twice), as [`crate::experiment::pullout`]
+    /// does.
     pub fn break_passes(&mut self, removed: &[(usize, usize)]) -> Result<(), SimError> {
         if removed.is_empty() {
             return Ok(());
@@ -368,14 +373,21 @@ impl Simulator {
             obstacles: self.obstacles.clone(),
         };
         let mut sim = Self::assemble(parts, false)?;
+        // Springs that existed keep their anchors; new ones (a head that lost its parallel
+        // partner) start unstretched at the current state, not at the layout.
+        let q = sim.state.q.clone();
         for (_, spring, d) in sim.elastic.iter_mut_of::<AnchoredSpring, 1>() {
-            if let Some(&a) = anchors.get(&(d[0], usize::MAX)) {
-                spring.anchor = a;
-            }
+            spring.anchor = anchors.get(&(d[0], usize::MAX)).copied().unwrap_or(q[d[0]]);
         }
         for (_, pair, d) in sim.elastic.iter_mut_of::<ParallelSpring, 2>() {
-            if let Some(&a) = anchors.get(&(d[0], d[1])) {
-                pair.spring.anchor = a;
+            pair.spring.anchor = anchors
+                .get(&(d[0], d[1]))
+                .copied()
+                .unwrap_or_else(|| ParallelSpring::delta(q[d[0]], q[d[1]]));
+        }
+        for (v, &f) in sim.state.v.iter_mut().zip(&sim.fixed) {
+            if f {
+                *v = 0.0;
             }
         }
         sim.time = self.time;

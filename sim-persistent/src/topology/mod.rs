@@ -184,13 +184,14 @@ impl StitchContact {
 
     /// The yarn passes through the contact's nodes front to back: for a knit-type stitch the
     /// upper leg (pulled through to the front), then the heads top first; for a purl-type
-    /// stitch (the knit seen from the back) the reverse.
+    /// stitch the heads top first, then the upper leg (pulled through to the back; seen from
+    /// the front a P2TOG's left loop lies in front of its right one, as a K2TOG's does).
     pub fn front_to_back(&self) -> Vec<Strand> {
-        let mut v: Vec<Strand> = self.strands().copied().collect();
         if self.sign < 0.0 {
-            v.reverse();
+            self.lower.iter().chain([&self.upper]).copied().collect()
+        } else {
+            self.strands().copied().collect()
         }
-        v
     }
 }
 
@@ -238,7 +239,7 @@ pub struct Topology {
     pub nodes: Vec<Node>,
     /// Yarns as ordered node passes.
     pub yarns: Vec<Yarn>,
-    /// Two-yarn stitch contacts (knits).
+    /// Stitch contacts (knits): an upper leg and one or more stacked heads.
     pub stitch_contacts: Vec<StitchContact>,
     /// Crossings (weaves).
     pub crossings: Vec<Crossing>,
@@ -288,13 +289,26 @@ impl Topology {
     /// The knit of `chart` knitted as `construction` (module documentation). Errors for a
     /// tube of fewer than 3 stitches.
     pub fn knit_with(chart: &Chart, construction: Construction) -> Result<Self, TopologyError> {
-        if construction == Construction::Round && chart.width() < 3 {
+        if construction == Construction::Round
+            && let Some(r) = (0..chart.height()).find(|&r| chart.loops_made(r) < 3)
+        {
             return Err(TopologyError::Invalid(format!(
-                "a tube knitted in the round needs ≥ 3 stitches per round, the chart casts on {}",
-                chart.width()
+                "a tube knitted in the round needs ≥ 3 loops in every round; round {r} (0-based) makes {}",
+                chart.loops_made(r)
             )));
         }
-        Ok(knit::build(chart, construction))
+        let topo = knit::build(chart, construction);
+        // A yarn-over at a turning edge of a continuous flat yarn would make the yarn pass
+        // one node twice in a row (the yarn-over's head and the next row's first foot).
+        topo.validate().map_err(|e| {
+            TopologyError::Invalid(format!(
+                "the chart cannot be knitted as `{}`: {e} (a yarn-over at the end of a row that \
+                 the yarn turns at is not supported; work a stitch before it at the edge, or \
+                 knit the chart with one yarn per row)",
+                construction.name()
+            ))
+        })?;
+        Ok(topo)
     }
 
     /// A `warps × wefts` weave: node `j · warps + i` is the crossing of warp `i` and weft `j`;
@@ -466,6 +480,11 @@ impl Topology {
     /// The node on `strand`'s yarn next to the contact node `end` (0 = `q₀`, 1 = `q₁`) away
     /// from the contact (`q₄`/`q₃` of Fig. 8), if the yarn goes on.
     pub fn strand_outer(&self, strand: &Strand, end: usize) -> Option<usize> {
+        self.strand_outer_pass(strand, end).map(|(n, _)| n)
+    }
+
+    /// `(node, slot)` of the pass of [`Topology::strand_outer`].
+    pub fn strand_outer_pass(&self, strand: &Strand, end: usize) -> Option<(usize, usize)> {
         let [i0, i1] = strand.indices();
         let (i, other) = if end == 0 { (i0, i1) } else { (i1, i0) };
         let j = if i > other {
@@ -473,12 +492,15 @@ impl Topology {
         } else {
             i.checked_sub(1)?
         };
-        self.yarns[strand.yarn].passes.get(j).map(|p| p.node)
+        self.yarns[strand.yarn]
+            .passes
+            .get(j)
+            .map(|p| (p.node, p.slot))
     }
 
     /// The stack of every node front to back, as slots, with per adjacent pair whether the two
-    /// yarns are parallel (two heads stacked by a decrease: they slide along one axis, seed
-    /// 000 §4.4). `None` for nodes that are not on a stitch contact.
+    /// yarns are parallel (two heads stacked by a decrease that run the same way: they slide
+    /// along one axis, seed 000 §4.4). `None` for nodes that are not on a stitch contact.
     pub fn knit_stacks(&self) -> Vec<Option<(Vec<usize>, Vec<bool>)>> {
         let mut out = vec![None; self.nodes.len()];
         for sc in &self.stitch_contacts {
@@ -488,9 +510,12 @@ impl Topology {
                     .iter()
                     .map(|st| self.strand_slots(st)[end].1)
                     .collect();
+                // Two heads are parallel when they run the same way through the contact;
+                // anti-parallel heads (a slipped loop stacked with a loop of the next row of
+                // a continuous yarn) slide in opposite senses and get independent springs.
                 let parallel = order
                     .windows(2)
-                    .map(|w| w[0] != sc.upper && w[1] != sc.upper)
+                    .map(|w| w[0] != sc.upper && w[1] != sc.upper && w[0].forward == w[1].forward)
                     .collect();
                 out[node] = Some((slots, parallel));
             }
@@ -582,8 +607,9 @@ impl Topology {
                     continue;
                 }
                 let mut pinned = self.nodes[p.node].passes[p.slot].sliding_pinned;
-                if drop_first[y] && i == 1 || drop_last[y] && i + 2 == n {
-                    let end = if i == 1 { 0 } else { n - 1 };
+                let new_first = drop_first[y] && i == 1;
+                if new_first || drop_last[y] && i + 2 == n {
+                    let end = if new_first { 0 } else { n - 1 };
                     let q = yarn.passes[end];
                     pinned = self.nodes[q.node].passes[q.slot].sliding_pinned;
                 }
