@@ -53,7 +53,11 @@ fn a_pulled_row_unravels() {
     // The first sample comes after the breaks while settling; the pull itself breaks more.
     assert_eq!(yarn_passes - first.passes, run.broken_settling);
     assert_eq!(first.passes - last.passes, run.broken);
-    assert!(run.broken >= 4, "{} passes broke during the pull", run.broken);
+    assert!(
+        run.broken >= 4,
+        "{} passes broke during the pull",
+        run.broken
+    );
     assert_eq!(run.broken % 2, 0);
     assert_eq!(first.contacts - last.contacts, run.broken / 2);
     let peak = run.samples.iter().map(|s| s.force).fold(0.0, f64::max);

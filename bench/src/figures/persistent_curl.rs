@@ -2,7 +2,11 @@
 //! flat layouts. Stockinette curls at its edges (side edges to the back, cast-on and
 //! bind-off edges to the front), rib compresses in width, garter should stay flat. Measured
 //! with `sim_persistent::measure` (edge curl in rad, positive towards the front; width over
-//! laid-out width) and rendered as yarn tubes.
+//! laid-out width) and rendered as yarn tubes. The swatches are knitted with one continuous
+//! yarn turning at the row ends. Full run (release, 20 × 20 stockinette, 20 × 21 garter,
+//! 22 × 20 rib, 266 s): stockinette rolls up (ends +12.4/+12.3 rad, sides −1.3/−4.7 rad,
+//! width ratio 0.69), garter stays flat (sides +0.08/−0.03, ends +0.23/−0.28 rad), rib
+//! compresses to 0.27 of its laid-out width.
 
 use sim_persistent::chart::Chart;
 use sim_persistent::measure::{course_width, edge_curl};

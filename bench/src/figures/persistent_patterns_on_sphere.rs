@@ -42,9 +42,10 @@
 //! **Measured** (dev profile, 2 shared cores). Quick (garter 6 × 5, rib 8 × 6, weave 7 × 7,
 //! ρ = 6 mm, 25 s): drape ratio / corner drop garter 1.07 / 3.1 mm, rib 1.04 / 1.2 mm, weave
 //! 0.83 / 6.5 mm; all at rest after 0.28–0.36 s (final E_kin ≈ 1e-9 J); deepest penetration
-//! 0.002–0.007 R. Full (garter 12 × 11, rib 14 × 12, weave 13 × 13, ρ = 12 mm, 178 s):
-//! garter 0.84 / 9.7 mm, rib 1.22 / −1.2 mm, weave 0.51 / 18.2 mm; all at rest after
-//! 0.13–0.47 s; deepest penetration ≤ 0.006 R. The woven swatch drapes most. The knits of
+//! 0.002–0.007 R. Full (release; garter 20 × 21, rib 22 × 20, weave 21 × 21, ρ = 20 mm,
+//! 207 s): garter 0.63 / 23.5 mm, rib 0.89 / 14.6 mm, weave 0.48 / 31.0 mm; all at rest
+//! after 0.21–0.54 s; deepest penetration ≤ 0.0096 R. (At 12 × 11 / 14 × 12 / 13 × 13 and
+//! ρ = 12 mm: garter 0.84 / 9.7 mm, rib 1.22 / −1.2 mm, weave 0.51 / 18.2 mm.) The woven swatch drapes most. The knits of
 //! this model settle into compact, strongly curled swatches (see the `curl` figure: the
 //! wrapping term dominates bending, the loops roll up tightly), which sit on the sphere as
 //! stiff bodies rather than draping softly as in Fig. 12; a settled rib is a narrow strip
