@@ -28,7 +28,13 @@
 //! | `M1L`, `M1R` | make one, left / right | 0 | 1 | a knit loop through the running bar between two loops of the row below |
 //! | `M1LP`, `M1RP` | make one purlwise | 0 | 1 | the same, purled |
 //! | `KFB`, `PFB` | knit / purl front and back | 1 | 2 | two loops through one loop of the row below |
+//! | `SSSK`, `SSSP` | slip, slip, slip, knit / purl 3 together | 3 | 1 | left-leaning double decrease, right loop on top |
+//! | `SK2P`, `SP2P` | slip 1, k2tog / p2tog, pass over | 3 | 1 | left-leaning double decrease, the slipped right loop on top |
 //! | `.` | no stitch | 0 | 0 | a placeholder that keeps printed charts aligned; ignored |
+//!
+//! Aliases: `SKP` reads as `SSK` (the same stack: right loop on top, leaning left), `CDD` as
+//! `S2KP`, a bare `M1` as `M1L`. Not expressible: mid-row bind-off / cast-on (buttonholes:
+//! every loop must be worked), through-the-back-loop twists (`K TBL`), repeat groups.
 //!
 //! Decreases make stacked stitches (seed 000 §3.2.3): the two or three loops of the row
 //! below are stacked and the new loop goes through all of them, so its two stitch contacts
@@ -64,8 +70,9 @@
 //! row     = token { sep token } ;
 //! sep     = ( " " | "\t" | "," ) { " " | "\t" | "," } ;
 //! token   = name [ count ] ;        the longest stitch name that starts the token
-//! name    = "K" | "P" | "YO" | "SL" | "K2TOG" | "SSK" | "K3TOG" | "S2KP" | "P2TOG" | "SSP"
-//!         | "P3TOG" | "S2PP" | "M1L" | "M1R" | "M1LP" | "M1RP" | "KFB" | "PFB" | "." ;
+//! name    = "K" | "P" | "YO" | "SL" | "K2TOG" | "SSK" | "K3TOG" | "S2KP" | "SSSK" | "SK2P"
+//!         | "P2TOG" | "SSP" | "P3TOG" | "S2PP" | "SSSP" | "SP2P" | "M1L" | "M1R" | "M1LP"
+//!         | "M1RP" | "KFB" | "PFB" | "SKP" | "CDD" | "M1" | "." ;
 //! count   = digit { digit } ;       1 ≤ count ≤ MAX_RUN
 //! ```
 //!
@@ -116,6 +123,14 @@ pub enum Stitch {
     Kfb,
     /// Purl front and back: two purl loops through one loop.
     Pfb,
+    /// Slip, slip, slip, knit three together (left-leaning double decrease).
+    Sssk,
+    /// Slip, slip, slip, purl three together.
+    Sssp,
+    /// Slip one, knit two together, pass the slipped loop over (left-leaning double decrease).
+    Sk2p,
+    /// Slip one, purl two together, pass the slipped loop over.
+    Sp2p,
 }
 
 /// Where a stitch's new loop(s) are pulled through.
@@ -130,7 +145,7 @@ pub enum Source {
 }
 
 /// Every stitch with its chart name, longest names first (the parser matches prefixes).
-const NAMES: [(&str, Stitch); 18] = [
+const NAMES: [(&str, Stitch); 22] = [
     ("K2TOG", Stitch::K2tog),
     ("K3TOG", Stitch::K3tog),
     ("P2TOG", Stitch::P2tog),
@@ -139,6 +154,10 @@ const NAMES: [(&str, Stitch); 18] = [
     ("M1RP", Stitch::M1rp),
     ("S2KP", Stitch::S2kp),
     ("S2PP", Stitch::S2pp),
+    ("SSSK", Stitch::Sssk),
+    ("SSSP", Stitch::Sssp),
+    ("SK2P", Stitch::Sk2p),
+    ("SP2P", Stitch::Sp2p),
     ("SSK", Stitch::Ssk),
     ("SSP", Stitch::Ssp),
     ("M1L", Stitch::M1l),
@@ -151,13 +170,24 @@ const NAMES: [(&str, Stitch); 18] = [
     ("P", Stitch::Purl),
 ];
 
+/// Other names knitters use for the same stitch in this model (the parser accepts them; a
+/// chart is written back with the names of [`NAMES`]): `SKP` (slip, knit, pass over) makes
+/// the stack of `SSK` (the right loop on top, leaning left), `CDD` is `S2KP`, a bare `M1` is
+/// `M1L`.
+const ALIASES: [(&str, Stitch); 3] = [
+    ("SKP", Stitch::Ssk),
+    ("CDD", Stitch::S2kp),
+    ("M1", Stitch::M1l),
+];
+
 /// What the tokens of a row may be (for errors).
-const EXPECTED_TOKEN: &str = "a stitch (K, P, YO, SL, K2TOG, SSK, K3TOG, S2KP, P2TOG, SSP, \
-P3TOG, S2PP, M1L, M1R, M1LP, M1RP, KFB, PFB) or `.`, with an optional repeat count (e.g. `K3`)";
+const EXPECTED_TOKEN: &str = "a stitch (K, P, YO, SL, K2TOG, SSK, K3TOG, S2KP, SSSK, SK2P, \
+P2TOG, SSP, P3TOG, S2PP, SSSP, SP2P, M1L, M1R, M1LP, M1RP, KFB, PFB; also SKP, CDD, M1) or \
+`.`, with an optional repeat count (e.g. `K3`)";
 
 impl Stitch {
     /// Every stitch, in the order of the module documentation's table.
-    pub const ALL: [Stitch; 18] = [
+    pub const ALL: [Stitch; 22] = [
         Stitch::Knit,
         Stitch::Purl,
         Stitch::YarnOver,
@@ -176,6 +206,10 @@ impl Stitch {
         Stitch::M1rp,
         Stitch::Kfb,
         Stitch::Pfb,
+        Stitch::Sssk,
+        Stitch::Sssp,
+        Stitch::Sk2p,
+        Stitch::Sp2p,
     ];
 
     /// The chart name (upper case), e.g. `"K"` or `"K2TOG"`.
@@ -193,7 +227,7 @@ impl Stitch {
         match self {
             Knit | Purl | Slip | Kfb | Pfb => Source::Loops(1),
             K2tog | Ssk | P2tog | Ssp => Source::Loops(2),
-            K3tog | S2kp | P3tog | S2pp => Source::Loops(3),
+            K3tog | S2kp | P3tog | S2pp | Sssk | Sssp | Sk2p | Sp2p => Source::Loops(3),
             M1l | M1r | M1lp | M1rp => Source::Bar,
             YarnOver => Source::None,
         }
@@ -221,8 +255,8 @@ impl Stitch {
     pub fn sign(self) -> f64 {
         use Stitch::*;
         match self {
-            Knit | K2tog | Ssk | K3tog | S2kp | M1l | M1r | Kfb => 1.0,
-            Purl | P2tog | Ssp | P3tog | S2pp | M1lp | M1rp | Pfb => -1.0,
+            Knit | K2tog | Ssk | K3tog | S2kp | Sssk | Sk2p | M1l | M1r | Kfb => 1.0,
+            Purl | P2tog | Ssp | P3tog | S2pp | Sssp | Sp2p | M1lp | M1rp | Pfb => -1.0,
             YarnOver | Slip => 0.0,
         }
     }
@@ -238,7 +272,8 @@ impl Stitch {
     /// worked from the right: the centre and right loops are slipped together — the centre
     /// ends on top — and passed over the left loop, knitted, at the bottom); purl
     /// counterparts alike (seen from the front, a P2TOG's left loop lies in front of its
-    /// right one, like a K2TOG's). One source: `[0]`.
+    /// right one, like a K2TOG's); `SSSK` `[2, 1, 0]`, `SK2P` `[2, 0, 1]` (the right loop,
+    /// slipped, passed over the two others knitted together). One source: `[0]`.
     pub fn stack_order(self) -> &'static [usize] {
         use Stitch::*;
         match self {
@@ -246,6 +281,8 @@ impl Stitch {
             Ssk | Ssp => &[1, 0],
             K3tog | P3tog => &[0, 1, 2],
             S2kp | S2pp => &[1, 2, 0],
+            Sssk | Sssp => &[2, 1, 0],
+            Sk2p | Sp2p => &[2, 0, 1],
             _ => &[0],
         }
     }
@@ -271,6 +308,10 @@ impl Stitch {
             M1rp => M1r,
             Kfb => Pfb,
             Pfb => Kfb,
+            Sssk => Sssp,
+            Sssp => Sssk,
+            Sk2p => Sp2p,
+            Sp2p => Sk2p,
             YarnOver => YarnOver,
             Slip => Slip,
         }
@@ -672,9 +713,12 @@ fn parse_token(
     let (stitch, name_len) = if upper.starts_with('.') {
         (None, 1)
     } else {
+        // The longest name (or alias) that starts the token.
         let (name, stitch) = NAMES
             .iter()
-            .find(|(name, _)| upper.starts_with(name))
+            .chain(&ALIASES)
+            .filter(|(name, _)| upper.starts_with(name))
+            .max_by_key(|(name, _)| name.len())
             .ok_or_else(unexpected)?;
         (Some(*stitch), name.len())
     };

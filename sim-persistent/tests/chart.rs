@@ -119,6 +119,10 @@ fn every_stitch_has_its_documented_counts_and_names() {
         ("M1RP", 0, 1, -1.0),
         ("KFB", 1, 2, 1.0),
         ("PFB", 1, 2, -1.0),
+        ("SSSK", 3, 1, 1.0),
+        ("SSSP", 3, 1, -1.0),
+        ("SK2P", 3, 1, 1.0),
+        ("SP2P", 3, 1, -1.0),
     ];
     assert_eq!(table.len(), Stitch::ALL.len());
     for (&s, (name, consumes, produces, sign)) in Stitch::ALL.iter().zip(table) {
@@ -134,6 +138,32 @@ fn every_stitch_has_its_documented_counts_and_names() {
         order.sort_unstable();
         assert_eq!(order, (0..consumes.max(1)).collect::<Vec<_>>(), "{name}");
     }
+}
+
+/// Knitters' other names read as the stitch with the same stack; names that start like
+/// another (SSK / SSSK, M1 / M1L, S2KP / SK2P) are told apart by the longest match.
+#[test]
+fn aliases_and_similar_names() {
+    let chart = Chart::parse("K12\nSKP CDD M1 K SSSK SK2P\n").unwrap();
+    assert_eq!(
+        chart.row(1),
+        &[
+            Stitch::Ssk,
+            Stitch::S2kp,
+            Stitch::M1l,
+            Stitch::Knit,
+            Stitch::Sssk,
+            Stitch::Sk2p
+        ]
+    );
+    assert_eq!(chart.to_text(), "K12\nSSK S2KP M1L K SSSK SK2P\n");
+    assert_eq!(
+        Chart::parse("K4\nK M12 K3\n").unwrap().row(1)[1..3],
+        [Stitch::M1l; 2]
+    );
+    // SK2P stacks the slipped right loop on top of the left two knitted together.
+    assert_eq!(Stitch::Sk2p.stack_order(), &[2, 0, 1]);
+    assert_eq!(Stitch::S2kp.stack_order(), &[1, 2, 0]);
 }
 
 #[test]
