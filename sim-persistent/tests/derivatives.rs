@@ -13,7 +13,7 @@ use sim_persistent::forces::quadratic::Quadratic;
 use sim_persistent::forces::segment_floor::SegmentFloor;
 use sim_persistent::forces::stitch_length::StitchLength;
 use sim_persistent::forces::wrapping::{StitchWrap, rest_angle_sign, wrap_pairs};
-use sim_persistent::forces::{ForceSet, TermKind, build_terms};
+use sim_persistent::forces::{ForceSet, Potential, TermKind, build_terms};
 use sim_persistent::forces::{bending::bending_stencil, stretch::stretch_stencil};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
@@ -295,6 +295,48 @@ fn friction_return_mapping_modes() {
     assert!((rod::Stencil::energy(&s, &at_limit) - stick).abs() <= 1e-12 * stick.abs().max(1e-30));
 }
 
+/// The assembled gradient and Hessian of `pot` at `q` against central differences of the
+/// energy (every DOF) and of the assembled gradient (every column); also checks the assembled
+/// energy. Returns the worst relative errors (gradient, Hessian).
+fn check_assembled(pot: &Potential, q: &[f64]) -> (f64, f64) {
+    let mut asm = Assembler::new(pot).unwrap();
+    let assembled = asm.assemble(pot, q, false).unwrap();
+    let energy = assembled.energy;
+    let gradient = assembled.gradient.to_vec();
+    let n = pot.n_dofs();
+    // Dense full Hessian from the stored lower triangle.
+    let h = assembled.hessian;
+    let mut dense = vec![0.0; n * n];
+    for j in 0..n {
+        let col = h.col_ptr()[j]..h.col_ptr()[j + 1];
+        for (idx, &i) in h.row_idx()[col.clone()].iter().enumerate() {
+            let v = h.val()[col.start + idx];
+            dense[i + n * j] = v;
+            dense[j + n * i] = v;
+        }
+    }
+    assert!((energy - pot.energy(q)).abs() <= 1e-12 * energy.abs());
+    let g_typ = gradient.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let opts = FdOptions {
+        step: 1e-8,
+        rtol: 1e-6,
+        atol: 1e-9 * g_typ,
+    };
+    let ge = check_gradient(|x: &[f64]| pot.energy(x), &gradient, q, &opts)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut asm2 = Assembler::new(pot).unwrap();
+    let grad_cell = std::cell::RefCell::new(|x: &[f64]| asm2.gradient(pot, x).unwrap().1.to_vec());
+    let h_typ = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let hopts = FdOptions {
+        step: 1e-8,
+        rtol: 1e-5,
+        atol: 1e-9 * h_typ,
+    };
+    let he = check_hessian(|x| (grad_cell.borrow_mut())(x), &dense, q, &hopts)
+        .unwrap_or_else(|e| panic!("{e}"));
+    (ge, he)
+}
+
 /// The assembled potential of a 3 × 3 seed-stitch swatch (every static term kind), at a
 /// perturbed layout: gradient vs central differences of the energy on every DOF, Hessian vs
 /// central differences of the gradient on every column.
@@ -362,42 +404,8 @@ fn assembled_potential_of_a_swatch() {
         .find(|(k, _)| *k == TermKind::SegmentFloor)
         .map(|(_, e)| e);
     assert!(floor_energy.is_some_and(|e| e > 0.0), "{floor_energy:?}");
-    let mut asm = Assembler::new(&pot).unwrap();
-    let assembled = asm.assemble(&pot, &q, false).unwrap();
-    let energy = assembled.energy;
-    let gradient = assembled.gradient.to_vec();
+    let (ge, he) = check_assembled(&pot, &q);
     let n = pot.n_dofs();
-    // Dense full Hessian from the stored lower triangle.
-    let h = assembled.hessian;
-    let mut dense = vec![0.0; n * n];
-    for j in 0..n {
-        let col = h.col_ptr()[j]..h.col_ptr()[j + 1];
-        for (idx, &i) in h.row_idx()[col.clone()].iter().enumerate() {
-            let v = h.val()[col.start + idx];
-            dense[i + n * j] = v;
-            dense[j + n * i] = v;
-        }
-    }
-    assert!((energy - pot.energy(&q)).abs() <= 1e-12 * energy.abs());
-    let g_typ = gradient.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let opts = FdOptions {
-        step: 1e-8,
-        rtol: 1e-6,
-        atol: 1e-9 * g_typ,
-    };
-    let eval_energy = |x: &[f64]| pot.energy(x);
-    let ge = check_gradient(eval_energy, &gradient, &q, &opts).unwrap_or_else(|e| panic!("{e}"));
-    let mut asm2 = Assembler::new(&pot).unwrap();
-    let grad_fn = |x: &[f64]| asm2.gradient(&pot, x).unwrap().1.to_vec();
-    let h_typ = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let hopts = FdOptions {
-        step: 1e-8,
-        rtol: 1e-5,
-        atol: 1e-9 * h_typ,
-    };
-    let grad_cell = std::cell::RefCell::new(grad_fn);
-    let he = check_hessian(|x| (grad_cell.borrow_mut())(x), &dense, &q, &hopts)
-        .unwrap_or_else(|e| panic!("{e}"));
     eprintln!(
         "assembled swatch: {n} DOFs, gradient rel. error {ge:.2e}, Hessian rel. error {he:.2e}"
     );
@@ -436,39 +444,8 @@ fn assembled_potential_of_stacked_stitches() {
                 q[dofs.u(n, s)] += 5e-5 * ((5 * n + s) as f64 * 0.71).cos();
             }
         }
-        let mut asm = Assembler::new(&pot).unwrap();
-        let assembled = asm.assemble(&pot, &q, false).unwrap();
-        let gradient = assembled.gradient.to_vec();
+        let (ge, he) = check_assembled(&pot, &q);
         let n = pot.n_dofs();
-        let h = assembled.hessian;
-        let mut dense = vec![0.0; n * n];
-        for j in 0..n {
-            let col = h.col_ptr()[j]..h.col_ptr()[j + 1];
-            for (idx, &i) in h.row_idx()[col.clone()].iter().enumerate() {
-                let v = h.val()[col.start + idx];
-                dense[i + n * j] = v;
-                dense[j + n * i] = v;
-            }
-        }
-        let g_typ = gradient.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let opts = FdOptions {
-            step: 1e-8,
-            rtol: 1e-6,
-            atol: 1e-9 * g_typ,
-        };
-        let ge = check_gradient(|x: &[f64]| pot.energy(x), &gradient, &q, &opts)
-            .unwrap_or_else(|e| panic!("{construction:?}: {e}"));
-        let mut asm2 = Assembler::new(&pot).unwrap();
-        let grad_cell =
-            std::cell::RefCell::new(|x: &[f64]| asm2.gradient(&pot, x).unwrap().1.to_vec());
-        let h_typ = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let hopts = FdOptions {
-            step: 1e-8,
-            rtol: 1e-5,
-            atol: 1e-9 * h_typ,
-        };
-        let he = check_hessian(|x| (grad_cell.borrow_mut())(x), &dense, &q, &hopts)
-            .unwrap_or_else(|e| panic!("{construction:?}: {e}"));
         eprintln!(
             "{construction:?} stacked chart: {n} DOFs, gradient rel. error {ge:.2e}, Hessian rel. error {he:.2e}"
         );

@@ -567,17 +567,15 @@ pub fn slip_forces(
         let parallel: Vec<bool> = e.parallel.iter().rev().copied().collect();
         let (_, pairs) = super::friction_springs(&front_to_back, &parallel);
         let lambda = e.lambda(solver);
+        let layer = |slot: usize| e.layers.iter().position(|&s| s == slot);
         for [a, b] in pairs {
-            let (ia, ib) = (layer_of(e, a), layer_of(e, b));
-            out[dofs.u(e.node, b)] = friction_coefficient * lambda[ia.min(ib)];
+            // Both slots come from this stack's layers (friction_springs).
+            if let (Some(ia), Some(ib)) = (layer(a), layer(b)) {
+                out[dofs.u(e.node, b)] = friction_coefficient * lambda[ia.min(ib)];
+            }
         }
     }
     out
-}
-
-/// Layer index of `slot` in a stack.
-fn layer_of(e: &NodeCompression, slot: usize) -> usize {
-    e.layers.iter().position(|&s| s == slot).unwrap_or(0)
 }
 
 /// Node sets `(course₊, course₋, wale₊, wale₋)` of the material front at `node` (module

@@ -486,7 +486,9 @@ pub fn build_terms(
 /// The friction springs of a stack (layers front to back as slots, `parallel[i]` for the
 /// contact between layers `i` and `i + 1`): the slots with a non-parallel contact, and the
 /// parallel pairs `[near, far]` ordered from the stack's non-parallel end (the upper leg) —
-/// so every far slot is the far end of exactly one pair ([`compression::slip_forces`]).
+/// so every far slot is the far end of exactly one pair ([`compression::slip_forces`]). The
+/// parallel pairs of a stack form one chain from the upper leg's end
+/// ([`Topology::knit_stacks`]: a stack with heads running opposite ways has none).
 pub fn friction_springs(layers: &[usize], parallel: &[bool]) -> (Vec<usize>, Vec<[usize; 2]>) {
     let own = layers
         .iter()

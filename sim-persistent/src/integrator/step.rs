@@ -11,40 +11,40 @@ use crate::state::{gather, segment_mass_matrix};
 use rayon::prelude::*;
 use solver::{Concat, NewtonReport, NewtonSolver, RodTerm, SolveError, StepError};
 
-/// The return-mapping classification of every friction spring of `terms` at `q`
-/// ([`AnchoredSpring::classify`]); returns how many changed mode.
-fn classify_friction(terms: &mut Potential, q: &[f64], limits: &[f64]) -> usize {
+/// Applies `f(spring, coordinate, slip force)` to every friction spring of `terms` at `q`:
+/// the single springs on `u`, and the parallel pairs on `Δu` with the slip force stored at
+/// their far coordinate `d[1]` ([`crate::forces::compression::slip_forces`]). Returns how
+/// many calls returned `true`.
+fn each_friction_spring(
+    terms: &mut Potential,
+    q: &[f64],
+    limits: &[f64],
+    mut f: impl FnMut(&mut AnchoredSpring, f64, f64) -> bool,
+) -> usize {
     let own: usize = terms
         .iter_mut_of::<AnchoredSpring, 1>()
-        .map(|(_, spring, d)| usize::from(spring.classify(q[d[0]], limits[d[0]])))
+        .map(|(_, spring, d)| usize::from(f(spring, q[d[0]], limits[d[0]])))
         .sum();
     let pairs: usize = terms
         .iter_mut_of::<ParallelSpring, 2>()
         .map(|(_, p, d)| {
             let du = ParallelSpring::delta(q[d[0]], q[d[1]]);
-            usize::from(p.spring.classify(du, limits[d[1]]))
+            usize::from(f(&mut p.spring, du, limits[d[1]]))
         })
         .sum();
     own + pairs
 }
 
+/// The return-mapping classification of every friction spring of `terms` at `q`
+/// ([`AnchoredSpring::classify`]); returns how many changed mode.
+fn classify_friction(terms: &mut Potential, q: &[f64], limits: &[f64]) -> usize {
+    each_friction_spring(terms, q, limits, |s, u, limit| s.classify(u, limit))
+}
+
 /// Ends a step at `q` for every friction spring of `terms` ([`AnchoredSpring::finish_step`]);
 /// returns how many slipped.
-/// A parallel pair's slip force is stored at its far coordinate (`d[1]`,
-/// [`crate::forces::compression::slip_forces`]).
 pub(super) fn finish_friction(terms: &mut Potential, q: &[f64], limits: &[f64]) -> usize {
-    let own: usize = terms
-        .iter_mut_of::<AnchoredSpring, 1>()
-        .map(|(_, spring, d)| usize::from(spring.finish_step(q[d[0]], limits[d[0]])))
-        .sum();
-    let pairs: usize = terms
-        .iter_mut_of::<ParallelSpring, 2>()
-        .map(|(_, p, d)| {
-            let du = ParallelSpring::delta(q[d[0]], q[d[1]]);
-            usize::from(p.spring.finish_step(du, limits[d[1]]))
-        })
-        .sum();
-    own + pairs
+    each_friction_spring(terms, q, limits, |s, u, limit| s.finish_step(u, limit))
 }
 
 impl Simulator {
@@ -123,12 +123,11 @@ impl Simulator {
             Ok(newton) => newton,
             Err(e) => {
                 // The step is retried (halved) from the start state: no slip mode stays.
-                for (_, spring, _) in self.elastic.iter_mut_of::<AnchoredSpring, 1>() {
-                    spring.slip = None;
-                }
-                for (_, pair, _) in self.elastic.iter_mut_of::<ParallelSpring, 2>() {
-                    pair.spring.slip = None;
-                }
+                let q = self.state.q.clone();
+                each_friction_spring(&mut self.elastic, &q, &limits, |s, _, _| {
+                    s.slip = None;
+                    false
+                });
                 return Err(e.into());
             }
         };

@@ -147,9 +147,9 @@ pub(super) fn build(chart: &Chart, construction: Construction) -> Topology {
     // Live loops per row (loop ids), and per row the cells of its stitch contacts.
     let mut live: Vec<Vec<usize>> = Vec::with_capacity(h);
     let mut boundaries: Vec<Vec<Cell>> = vec![Vec::new(); h + 1];
-    // Per cell of boundary b ≥ 1: its source loops in stacking order, or the bar
-    // `(row, before live slot k)`.
-    let mut bars: Vec<((usize, usize), (usize, usize))> = Vec::new();
+    // The cells of the M1s lifting each bar `(row, before live slot k)` of a row.
+    let mut bars: std::collections::HashMap<(usize, usize), Vec<(usize, usize)>> =
+        std::collections::HashMap::new();
     let mut n_nodes = 0;
     for r in 0..h {
         let row = chart.row(r);
@@ -185,7 +185,7 @@ pub(super) fn build(chart: &Chart, construction: Construction) -> Topology {
                 let cell = new_cell(&mut boundaries, &mut n_nodes, r, (r, j), x_of(j), s.sign());
                 loops[id].feet = Some(cell);
                 if s.source() == Source::Bar {
-                    bars.push(((r - 1, k), cell));
+                    bars.entry((r - 1, k)).or_default().push(cell);
                 }
                 for (rank, &src) in s.stack_order().iter().enumerate() {
                     if let Some(&l) = sources.get(src) {
@@ -223,10 +223,8 @@ pub(super) fn build(chart: &Chart, construction: Construction) -> Topology {
             }
         };
         for (j, &l) in live[r].iter().enumerate() {
-            for &((br, bk), (b, c)) in &bars {
-                if br == r && bk == j {
-                    head(&mut path, &[(b, c, 0)]);
-                }
+            for &(b, c) in bars.get(&(r, j)).into_iter().flatten() {
+                head(&mut path, &[(b, c, 0)]);
             }
             let rec = &loops[l];
             if rec.row != r {

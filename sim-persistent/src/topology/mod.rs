@@ -510,12 +510,15 @@ impl Topology {
                     .iter()
                     .map(|st| self.strand_slots(st)[end].1)
                     .collect();
-                // Two heads are parallel when they run the same way through the contact;
-                // anti-parallel heads (a slipped loop stacked with a loop of the next row of
-                // a continuous yarn) slide in opposite senses and get independent springs.
+                // The heads are parallel when they all run the same way through the contact.
+                // A stack with heads running opposite ways (a slipped loop stacked with a
+                // loop of the next row of a continuous yarn) slides in opposite senses: all
+                // its yarns get independent springs (so the parallel pairs of a stack always
+                // form one chain from the upper leg's end, which friction_springs relies on).
+                let aligned = sc.lower.iter().all(|st| st.forward == sc.lower[0].forward);
                 let parallel = order
                     .windows(2)
-                    .map(|w| w[0] != sc.upper && w[1] != sc.upper && w[0].forward == w[1].forward)
+                    .map(|w| aligned && w[0] != sc.upper && w[1] != sc.upper)
                     .collect();
                 out[node] = Some((slots, parallel));
             }
