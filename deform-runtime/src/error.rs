@@ -42,7 +42,7 @@ pub enum DeformError {
     Gpu(#[from] Box<crate::gpu::GpuError>),
     /// Output (geometry, image) could not be written.
     #[error(transparent)]
-    Output(#[from] yarn_output::OutputError),
+    Output(yarn_output::OutputError),
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
     Io {

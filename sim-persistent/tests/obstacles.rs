@@ -58,14 +58,15 @@ fn contact(shape: Shape) -> ObstacleContact {
 }
 
 /// The point at penetration depth `d` (m) along the unit direction `dir` from the shape.
-fn at_depth(shape: Shape, dir: Vector3<f64>, d: f64) -> SVector<f64, 3> {
-    match shape {
+fn at_depth(shape: &Shape, dir: Vector3<f64>, d: f64) -> SVector<f64, 3> {
+    match *shape {
         Shape::Sphere { center, radius } => center + dir * (radius + R - d),
         Shape::Plane { point, normal } => {
             // dir's tangential part moves along the plane.
             let t = dir - normal * dir.dot(&normal);
             point + t * 5e-3 + normal * (R - d)
         }
+        Shape::Mesh(_) => unreachable!("spheres and planes only"),
     }
 }
 
@@ -85,8 +86,8 @@ proptest! {
         let delta = ONSET_FRACTION * R;
         prop_assume!(d.abs() > 1e-3 * delta && (d - delta).abs() > 1e-3 * delta);
         let shape = if on_sphere { sphere() } else { plane() };
-        let c = contact(shape);
-        let q = at_depth(shape, dir.normalize(), d);
+        let c = contact(shape.clone());
+        let q = at_depth(&shape, dir.normalize(), d);
         prop_assert!((c.gap(&q) + d).abs() < 1e-15);
         let e = c.eval(&q);
         if d < 0.0 {
@@ -108,11 +109,11 @@ proptest! {
 #[test]
 fn obstacle_contact_is_c2_across_the_boundary() {
     for shape in [sphere(), plane()] {
-        let c = contact(shape);
+        let c = contact(shape.clone());
         let delta = c.onset;
         let dir = Vector3::new(0.2, 0.5, 0.8).normalize();
         for d0 in [0.0, delta] {
-            let q = at_depth(shape, dir, d0);
+            let q = at_depth(&shape, dir, d0);
             let e = c.eval(&q);
             let g_typ = c.stiffness * delta;
             let opts = FdOptions::for_scale(R, g_typ);
@@ -135,8 +136,8 @@ fn obstacle_contact_is_c2_across_the_boundary() {
             );
             // Hessians on both sides agree too.
             let (h_lo, h_hi) = (
-                c.eval(&at_depth(shape, dir, d0 - eps)).hessian,
-                c.eval(&at_depth(shape, dir, d0 + eps)).hessian,
+                c.eval(&at_depth(&shape, dir, d0 - eps)).hessian,
+                c.eval(&at_depth(&shape, dir, d0 + eps)).hessian,
             );
             assert!((h_hi - h_lo).amax() <= 1e-6 * c.stiffness);
         }
@@ -149,7 +150,7 @@ fn obstacle_contact_is_c2_across_the_boundary() {
             2.0 * delta,
             20.0 * delta,
         ] {
-            let r = assert_stencil_derivatives(&c, &at_depth(shape, dir, d), R);
+            let r = assert_stencil_derivatives(&c, &at_depth(&shape, dir, d), R);
             worst.0 = worst.0.max(r.gradient_rel_error);
             worst.1 = worst.1.max(r.hessian_rel_error);
         }
@@ -255,6 +256,7 @@ fn obstacle_terms_exist_only_with_obstacles() {
             radius: -1.0,
         },
         stiffness: None,
+        midpoints: false,
     };
     assert!(sim.add_obstacles(&[bad]).is_err());
     assert_eq!(sim.static_terms().len(), before);
@@ -303,9 +305,9 @@ fn swatch_dropped_onto_a_sphere_rests_on_top() {
         center: Vector3::new(mid, mid, -(rho + params.radius + 1e-3)),
         radius: rho,
     };
-    sim.add_obstacles(&[Obstacle::new(shape, None).unwrap()])
+    sim.add_obstacles(&[Obstacle::new(shape.clone(), None).unwrap()])
         .unwrap();
-    let c = contact(shape);
+    let c = contact(shape.clone());
     let start = std::time::Instant::now();
     let (lo, hi, speed) = settle(&mut sim, &c, 500);
     let elapsed = start.elapsed().as_secs_f64();
@@ -339,9 +341,9 @@ fn swatch_dropped_onto_a_plane_rests_on_it() {
         point: Vector3::new(0.0, 0.0, -(params.radius + 1e-3)),
         normal: Vector3::z(),
     };
-    sim.add_obstacles(&[Obstacle::new(shape, None).unwrap()])
+    sim.add_obstacles(&[Obstacle::new(shape.clone(), None).unwrap()])
         .unwrap();
-    let c = contact(shape);
+    let c = contact(shape.clone());
     let start = std::time::Instant::now();
     let (lo, hi, speed) = settle(&mut sim, &c, 300);
     eprintln!(

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-/// Errors of writing geometry, images and tables, or of reading tables.
+/// Errors of writing geometry, images and tables, or of reading tables and meshes.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
     /// A file could not be read or written.
@@ -24,6 +24,16 @@ pub enum OutputError {
     /// Inconsistent input (e.g. polylines whose arrays do not match).
     #[error("{0}")]
     Invalid(String),
+    /// A mesh file is malformed.
+    #[error("{}:{line}: {message}", path.display())]
+    Mesh {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line (0 when the problem is not tied to a line).
+        line: usize,
+        /// What was expected and what was found.
+        message: String,
+    },
     /// A CSV table is malformed.
     #[error("{source_name}:{line}: {message}")]
     Csv {

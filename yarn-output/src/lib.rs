@@ -1,6 +1,6 @@
 //! # yarn-output — writing yarn geometry, images and tables
 //!
-//! One place for everything the workbench writes, shared by the simulators, the deformer and
+//! One place for everything the workbench writes (and the mesh and table files it reads), shared by the simulators, the deformer and
 //! the figures. A leaf crate: it knows nothing about solvers, GPUs or any method.
 //!
 //! | module | contents |
@@ -8,6 +8,7 @@
 //! | [`polylines`] | [`Polylines`]: yarn curves as coordinate arrays plus CSR curve offsets (a view), [`PolylineBuf`] (owned) |
 //! | [`obj`], [`ply`], [`bcc`], [`usda`] | the four curve formats: Wavefront OBJ `l` elements, ASCII PLY with edges, Cem Yuksel's binary curve collection, USD ASCII `BasisCurves` |
 //! | [`render`] | orthographic tube renderer (capsules, depth buffer, Lambert) and 8-bit RGB PNG images (`png` crate) |
+//! | [`obj_mesh`] | the one OBJ triangle-mesh reader (single meshes and numbered sequences), for the deformer's meshes and the simulator's mesh obstacles |
 //! | [`table`] | named `f64` columns with CSV read/write (`csv` crate), errors located by file and line |
 //!
 //! Every format is written exactly as its module documents. Closed curves are written by
@@ -16,6 +17,7 @@
 pub mod bcc;
 pub mod error;
 pub mod obj;
+pub mod obj_mesh;
 pub mod ply;
 pub mod polylines;
 pub mod render;

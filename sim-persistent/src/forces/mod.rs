@@ -17,7 +17,7 @@
 //! | floor on a segment's material length (ours) | [`segment_floor`] | `(u₀, u₁)` per segment | — |
 //! | stitch wrapping (knits only) | [`wrapping`] | `(x₀, x₁, x₄, x₃)` per pair of opposite segments | seed 000 Eq. 2, Eqs. 7–13 |
 //! | crossing shear with jamming (weaves only) | [`crossing_shear`] | `(x_a, x₀, x_b)` per crossing quadrant | ref. 6 (Cirio 2014) shear, seed 000 §4.1 jamming |
-//! | sphere / plane obstacle contact (only with obstacles) | [`obstacle`] | `x` per node and obstacle | seed 000 §5.2.1 (penalty, C²) |
+//! | sphere / plane / mesh obstacle contact (only with obstacles) | [`obstacle`] | `x` per node and obstacle; `x_a, x_b` per segment and mesh obstacle | seed 000 §5.2.1 (penalty, C²) |
 //! | inertia, Rayleigh damping | [`quadratic`] | as the term they belong to | §4, [`crate::integrator`] |
 //!
 //! Not yet implemented: friction of parallel stacked yarns (no topology has them yet, see
@@ -143,7 +143,7 @@ pub enum TermKind {
 /// length [`StitchLength`] (2), friction [`AnchoredSpring`] (1), parallel friction
 /// [`friction::ParallelSpring`] (2), wrapping [`StitchWrap`] (12;
 /// positions of `q₀, q₁, q₄, q₃`), crossing shear [`crossing_shear::CrossingShear`] (9),
-/// obstacle [`obstacle::ObstacleContact`] (3), loop contact [`LoopContact`] (6), segment
+/// obstacle [`obstacle::ObstacleContact`] (3) or [`obstacle::MidpointContact`] (6), loop contact [`LoopContact`] (6), segment
 /// floor [`SegmentFloor`] (2), inertia and damping [`quadratic::Quadratic<N>`] (as the term
 /// they belong to).
 #[derive(Clone, Debug)]
@@ -336,7 +336,8 @@ impl solver::Problem for Potential {
 }
 
 /// The obstacle-contact terms of `obstacles` for the yarns of `params` (one per node and
-/// obstacle, [`obstacle`]); empty without obstacles. Errors if an obstacle is invalid.
+/// obstacle, and one per segment and mesh obstacle, [`obstacle`]); empty without obstacles.
+/// Errors if an obstacle is invalid.
 pub fn obstacle_terms(
     topology: &Topology,
     dofs: &DofMap,
@@ -344,7 +345,11 @@ pub fn obstacle_terms(
     obstacles: &[obstacle::Obstacle],
 ) -> Result<Potential, String> {
     let mut terms = Potential::new(dofs.n_dofs());
-    for (s, d) in obstacle::stencils(topology, dofs, params, obstacles)? {
+    let (nodes, midpoints) = obstacle::stencils(topology, dofs, params, obstacles)?;
+    for (s, d) in nodes {
+        terms.push(TermKind::Obstacle, s, d);
+    }
+    for (s, d) in midpoints {
         terms.push(TermKind::Obstacle, s, d);
     }
     Ok(terms)

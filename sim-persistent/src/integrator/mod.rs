@@ -395,8 +395,8 @@ impl Simulator {
         Ok(())
     }
 
-    /// Adds sphere and plane obstacles: one penalty-contact term per node and obstacle
-    /// ([`crate::forces::obstacle`]), counted among the elastic terms (potential energy,
+    /// Adds sphere, plane and mesh obstacles: one penalty-contact term per node and obstacle,
+    /// and per segment and mesh obstacle ([`crate::forces::obstacle`]), counted among the elastic terms (potential energy,
     /// clamp forces, static equilibrium). Without obstacles nothing is added, so a scene
     /// without obstacles makes no obstacle queries. Obstacle terms are not Rayleigh-β
     /// damped. Errors (and adds nothing) if an obstacle is invalid.
@@ -407,6 +407,15 @@ impl Simulator {
         if obstacles.is_empty() {
             return Ok(());
         }
+        // Animated obstacles start where the simulation is.
+        let obstacles: Vec<Obstacle> = obstacles
+            .iter()
+            .map(|o| Obstacle {
+                shape: o.shape.at_time(self.time),
+                ..o.clone()
+            })
+            .collect();
+        let obstacles = &obstacles[..];
         let terms =
             crate::forces::obstacle_terms(&self.topology, &self.dofs, &self.params, obstacles)
                 .map_err(SimError::Invalid)?;
@@ -416,6 +425,35 @@ impl Simulator {
         self.elastic.append(terms);
         self.solver.0 = None; // new stencils, new pattern
         Ok(())
+    }
+
+    /// Moves every animated obstacle to time `t` (s) ([`crate::forces::obstacle::mesh`]): its
+    /// contact terms get the mesh at `t`. Static obstacles are untouched.
+    pub(super) fn move_obstacles(&mut self, t: f64) {
+        use crate::forces::obstacle::{MidpointContact, ObstacleContact, Shape};
+        for o in self.obstacles.iter_mut().filter(|o| o.shape.is_animated()) {
+            let moved = o.shape.at_time(t);
+            if moved == o.shape {
+                continue;
+            }
+            let old = std::mem::replace(&mut o.shape, moved.clone());
+            let replace = |shape: &mut Shape| {
+                if *shape == old {
+                    *shape = moved.clone();
+                }
+            };
+            for (_, c, _) in self.elastic.iter_mut_of::<ObstacleContact, 3>() {
+                replace(&mut c.shape);
+            }
+            for (_, c, _) in self.elastic.iter_mut_of::<MidpointContact, 6>() {
+                replace(&mut c.0.shape);
+            }
+        }
+    }
+
+    /// The obstacles added so far (animated meshes where the last step left them).
+    pub fn obstacles(&self) -> &[Obstacle] {
+        &self.obstacles
     }
 
     /// Holds the positions of `nodes` fixed (Dirichlet DOFs) from now on.

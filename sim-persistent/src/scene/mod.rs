@@ -54,7 +54,13 @@
 //! jamming_factor = 1000.0
 //!
 //! [[obstacle]]         # any number; frictionless penalty contact (crate::forces::obstacle)
-//! kind = "sphere"      # "sphere" (centre, radius) or "plane" (point, normal)
+//! kind = "sphere"      # "sphere" (centre, radius), "plane" (point, normal) or "mesh":
+//!                      # file = "body.obj" (relative to the scene file; "body_*.obj" is a
+//!                      # numbered OBJ sequence, then fps = 30 is required), scale = 0.001
+//!                      # (file units to m; default 1), offset = [x, y, z] (m; default 0),
+//!                      # reach = 5e-3 (m; how far from the surface yarn points are
+//!                      # searched, crate::forces::obstacle::mesh); yarn nodes and segment
+//!                      # midpoints touch a mesh
 //! centre = [0.0, 0.0, -0.02]   # m
 //! radius = 0.01        # m
 //! stiffness = 2e4      # N/m; optional, default k_s/R of the yarn
@@ -225,6 +231,9 @@ pub struct Scene {
     /// The virtual swatch test instead of a time-stepped run.
     #[serde(default)]
     pub uniaxial: Option<toml::Spanned<UniaxialSpec>>,
+    /// The directory of the scene file (mesh files are relative to it).
+    #[serde(skip)]
+    pub base: std::path::PathBuf,
 }
 
 /// `[uniaxial]`: the virtual swatch test ([`crate::experiment::uniaxial`]).
@@ -306,7 +315,8 @@ impl StickyObstacles {
 impl Scene {
     /// Parses TOML `text`; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
-        let scene = Self::parse_fields(text, path)?;
+        let mut scene = Self::parse_fields(text, path)?;
+        scene.base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let located = |span: std::ops::Range<usize>, message: String| {
             let (line, column) = line_column(text, span.start);
             SceneError::Parse {
@@ -317,7 +327,7 @@ impl Scene {
             }
         };
         for o in &scene.obstacle {
-            if let Err(message) = o.get_ref().obstacle() {
+            if let Err(message) = o.get_ref().obstacle(&scene.base) {
                 return Err(located(o.span(), message));
             }
         }
@@ -531,13 +541,17 @@ impl Scene {
         let obstacles = self
             .obstacle
             .iter()
-            .map(|o| o.get_ref().obstacle().map_err(SceneError::Invalid))
+            .map(|o| {
+                o.get_ref()
+                    .obstacle(&self.base)
+                    .map_err(SceneError::Invalid)
+            })
             .collect::<Result<Vec<_>, _>>()?;
         sim.add_obstacles(&obstacles)?;
         let sticky = StickyObstacles {
             obstacles: (self.obstacle.iter().zip(&obstacles))
                 .filter(|(spec, _)| spec.get_ref().sticky)
-                .map(|(_, o)| *o)
+                .map(|(_, o)| o.clone())
                 .collect(),
             yarn_radius: params.radius,
             contacts: StickyContacts::new(sim.topology().nodes.len()),

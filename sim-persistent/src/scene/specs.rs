@@ -334,7 +334,8 @@ fn de_velocity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Er
     Ok(v)
 }
 
-/// `[[obstacle]]`: a sphere (`centre`, `radius`) or a plane (`point`, `normal`) with an
+/// `[[obstacle]]`: a sphere (`centre`, `radius`), a plane (`point`, `normal`) or a triangle
+/// mesh (`file`, optionally `scale`, `offset`, `reach`, and `fps` for an OBJ sequence) with an
 /// optional `stiffness` (SI units), checked by [`super::Scene::parse`] (errors name the entry's
 /// line).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -350,6 +351,18 @@ pub struct ObstacleSpec {
     pub point: Option<[f64; 3]>,
     /// The plane's outward normal (any non-zero length).
     pub normal: Option<[f64; 3]>,
+    /// A mesh's OBJ file, relative to the scene file; a `*` in the file name makes it a
+    /// numbered sequence (an animation, needs `fps`).
+    pub file: Option<String>,
+    /// Frames per second of a mesh sequence.
+    pub fps: Option<f64>,
+    /// Factor from the mesh file's units to metres (default 1).
+    pub scale: Option<f64>,
+    /// Translation (m) of the scaled mesh (default zero).
+    pub offset: Option<[f64; 3]>,
+    /// How far from a mesh's surface (m) yarn points are searched (default
+    /// [`crate::forces::obstacle::mesh::DEFAULT_REACH`]).
+    pub reach: Option<f64>,
     /// Penalty stiffness (N/m); default `k_s/R` of the yarn.
     pub stiffness: Option<f64>,
     /// Sticking contact (default false): a node touching the obstacle at the end of a step
@@ -360,8 +373,13 @@ pub struct ObstacleSpec {
 }
 
 impl ObstacleSpec {
-    /// The validated obstacle, or what is wrong with the entry.
-    pub fn obstacle(&self) -> Result<crate::forces::obstacle::Obstacle, String> {
+    /// The validated obstacle, or what is wrong with the entry; a mesh file is read relative
+    /// to `base` (the scene file's directory).
+    pub fn obstacle(
+        &self,
+        base: &std::path::Path,
+    ) -> Result<crate::forces::obstacle::Obstacle, String> {
+        use crate::forces::obstacle::mesh::{DEFAULT_REACH, MeshAnimation, TriangleMesh};
         use crate::forces::obstacle::{Obstacle, Shape};
         let o = self;
         let stray = |keys: &[(&str, bool)]| -> Result<(), String> {
@@ -374,8 +392,16 @@ impl ObstacleSpec {
             }
         };
         let need = |k: &str| format!("[[obstacle]] kind \"{}\" needs `{k}`", o.kind);
+        let mesh_keys = [
+            ("file", o.file.is_some()),
+            ("fps", o.fps.is_some()),
+            ("scale", o.scale.is_some()),
+            ("offset", o.offset.is_some()),
+            ("reach", o.reach.is_some()),
+        ];
         let shape = match o.kind.as_str() {
             "sphere" => {
+                stray(&mesh_keys)?;
                 stray(&[("point", o.point.is_some()), ("normal", o.normal.is_some())])?;
                 Shape::Sphere {
                     center: V3::from(o.centre.ok_or_else(|| need("centre"))?),
@@ -383,6 +409,7 @@ impl ObstacleSpec {
                 }
             }
             "plane" => {
+                stray(&mesh_keys)?;
                 stray(&[
                     ("centre", o.centre.is_some()),
                     ("radius", o.radius.is_some()),
@@ -392,9 +419,49 @@ impl ObstacleSpec {
                     normal: V3::from(o.normal.ok_or_else(|| need("normal"))?),
                 }
             }
+            "mesh" => {
+                stray(&[
+                    ("centre", o.centre.is_some()),
+                    ("radius", o.radius.is_some()),
+                    ("point", o.point.is_some()),
+                    ("normal", o.normal.is_some()),
+                ])?;
+                let file = o.file.as_ref().ok_or_else(|| need("file"))?;
+                let scale = o.scale.unwrap_or(1.0);
+                if !(scale.is_finite() && scale > 0.0) {
+                    return Err(format!("[[obstacle]] `scale` must be > 0, got {scale}"));
+                }
+                let offset = V3::from(o.offset.unwrap_or([0.0; 3]));
+                if !offset.iter().all(|c| c.is_finite()) {
+                    return Err("[[obstacle]] `offset` must be finite".into());
+                }
+                let reach = o.reach.unwrap_or(DEFAULT_REACH);
+                let path = base.join(file);
+                let shown = path.display().to_string();
+                if file.contains('*') {
+                    let fps = o.fps.ok_or_else(|| {
+                        "[[obstacle]] a mesh sequence (`*` in `file`) needs `fps`".to_string()
+                    })?;
+                    Shape::animated_mesh(
+                        MeshAnimation::read_obj_sequence(&shown, fps, scale, offset, reach)
+                            .map_err(|e| format!("[[obstacle]] {e}"))?,
+                    )
+                } else {
+                    if o.fps.is_some() {
+                        return Err(
+                            "[[obstacle]] `fps` applies to mesh sequences only (`*` in `file`)"
+                                .into(),
+                        );
+                    }
+                    Shape::mesh(
+                        TriangleMesh::read_obj(&path, scale, offset, reach)
+                            .map_err(|e| format!("[[obstacle]] {e}"))?,
+                    )
+                }
+            }
             other => {
                 return Err(format!(
-                    "[[obstacle]] unknown kind \"{other}\" (sphere, plane)"
+                    "[[obstacle]] unknown kind \"{other}\" (sphere, plane, mesh)"
                 ));
             }
         };
