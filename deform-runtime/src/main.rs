@@ -160,6 +160,7 @@ fn write_yarns(
         radius,
         up: UpAxis::Z,
         comment: COMMENT,
+        meshes: &[],
     };
     match format {
         Format::Obj => yarn_output::write_with(file, |w| obj::write(w, lines, COMMENT))?,

@@ -502,3 +502,46 @@ fn scene_mesh_obstacles() {
     assert!(msg.contains("bad.obj:3:"), "{msg}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Frames of a simulation with a mesh obstacle show it: the PNG has pixels of the obstacle's
+/// colour (shaded) and the USD file holds a `Mesh` prim with its triangles beside the yarns.
+#[test]
+fn frames_draw_mesh_obstacles() {
+    use sim_persistent::output::{Format, FrameWriter, OBSTACLE_COLOUR, OutputSpec};
+    let mut sim = weave_sim(3);
+    let mesh = TriangleMesh::icosphere(V3::new(3e-3, 3e-3, -6e-3), 4e-3, 2, 4e-3).unwrap();
+    let triangles = mesh.triangles().len();
+    sim.add_obstacles(&[Obstacle::new(Shape::mesh(mesh), None).unwrap()])
+        .unwrap();
+    let dir = tmpdir("frames");
+    let spec = OutputSpec {
+        formats: vec![Format::Png, Format::Usda],
+        png_size: [120, 90],
+        ..OutputSpec::default()
+    };
+    let mut writer = FrameWriter::new(&dir, &spec, R).unwrap();
+    let paths = writer.write(&sim).unwrap();
+    let usda = std::fs::read_to_string(&paths[1]).unwrap();
+    assert!(usda.contains("def Mesh \"Mesh0\""), "{}", &usda[..200]);
+    let counts = usda
+        .lines()
+        .find(|l| l.contains("faceVertexCounts"))
+        .unwrap();
+    assert_eq!(counts.matches('3').count(), triangles);
+    let png = std::fs::read(&paths[0]).unwrap();
+    let decoder = png::Decoder::new(std::io::Cursor::new(png));
+    let mut reader = decoder.read_info().unwrap();
+    let mut rgb = vec![0; reader.output_buffer_size()];
+    reader.next_frame(&mut rgb).unwrap();
+    // Shaded obstacle pixels keep the colour's proportions (no yarn colour has them).
+    let [r0, g0, b0] = OBSTACLE_COLOUR.map(f64::from);
+    let skin = rgb
+        .chunks(3)
+        .filter(|p| {
+            let [r, g, b] = [p[0], p[1], p[2]].map(f64::from);
+            r > 40.0 && (g / r - g0 / r0).abs() < 0.03 && (b / r - b0 / r0).abs() < 0.03
+        })
+        .count();
+    assert!(skin > 200, "{skin} obstacle pixels");
+    std::fs::remove_dir_all(&dir).ok();
+}

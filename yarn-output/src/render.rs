@@ -21,6 +21,11 @@
 //! Invalid options (zero size, R ≤ 0, a degenerate camera) and inconsistent polylines are
 //! errors ([`OutputError::Option`]).
 //!
+//! Triangle meshes (a body, an obstacle) can be drawn into the same depth buffer
+//! ([`render_scene`] with [`MeshLayer`]s): each triangle is rasterized with its depth
+//! interpolated linearly (exact under an orthographic camera) and flat-shaded with its face
+//! normal facing the camera, in the layer's colour; [`Framing::Auto`] fits the meshes too.
+//!
 //! Images are written as 8-bit RGB PNG through the `png` crate ([`Image::to_png`]).
 
 use std::path::Path;
@@ -329,17 +334,74 @@ fn hit_capsule(px: f64, py: f64, a: [f64; 3], b: [f64; 3], r: f64) -> Option<f64
     best.is_finite().then_some(best)
 }
 
+/// A triangle mesh drawn with the tubes ([`render_scene`]).
+#[derive(Clone, Copy, Debug)]
+pub struct MeshLayer<'a> {
+    /// Vertex positions (world, m).
+    pub positions: &'a [[f64; 3]],
+    /// Triangles as vertex indices.
+    pub triangles: &'a [[u32; 3]],
+    /// The mesh's colour (sRGB).
+    pub colour: [u8; 3],
+}
+
 /// Renders the curves of `lines` as tubes (see the module documentation).
 pub fn render_tubes<T: Copy + Into<f64>>(
     lines: &Polylines<'_, T>,
     options: &RenderOptions,
 ) -> Result<Rendering> {
+    render_scene(lines, &[], options)
+}
+
+/// Renders the curves of `lines` as tubes and the triangle `meshes` into one depth buffer
+/// (see the module documentation). A triangle index beyond its mesh's vertices is an error;
+/// triangles with a non-finite corner are skipped.
+pub fn render_scene<T: Copy + Into<f64>>(
+    lines: &Polylines<'_, T>,
+    meshes: &[MeshLayer<'_>],
+    options: &RenderOptions,
+) -> Result<Rendering> {
     options.validate()?;
     lines.validate()?;
+    for m in meshes {
+        if let Some(t) = m
+            .triangles
+            .iter()
+            .find(|t| t.iter().any(|&i| i as usize >= m.positions.len()))
+        {
+            return Err(OutputError::Invalid(format!(
+                "mesh triangle {t:?} indexes beyond its {} vertices",
+                m.positions.len()
+            )));
+        }
+    }
     let camera_basis = basis(&options.camera)?;
     let (cam, skipped) = to_camera(lines, camera_basis);
-    let (center, scale) = fit_view(&cam, options);
+    let [right, up, forward] = camera_basis;
+    let mesh_cam: Vec<Vec<[f64; 3]>> = meshes
+        .iter()
+        .map(|m| {
+            m.positions
+                .iter()
+                .map(|&p| [dot(p, right), dot(p, up), dot(p, forward)])
+                .collect()
+        })
+        .collect();
+    let fitted: Vec<[f64; 3]> = cam
+        .iter()
+        .chain(mesh_cam.iter().flatten())
+        .copied()
+        .collect();
+    let (center, scale) = fit_view(&fitted, options);
     let mut canvas = Canvas::new(options, center, scale);
+    for (m, vertices) in meshes.iter().zip(&mesh_cam) {
+        for t in m.triangles {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            if [a, b, c].iter().flatten().all(|x| x.is_finite()) {
+                canvas.draw_triangle(a, b, c, m.colour);
+            }
+        }
+    }
     for c in 0..lines.n_curves() {
         let base = options.palette[c % options.palette.len()];
         draw_curve(&mut canvas, lines, c, &cam, base);
@@ -519,6 +581,48 @@ impl Canvas {
             .floor()
             .min(f64::from(sh) - 1.0);
         a as usize..(b + 1.0).max(a) as usize
+    }
+
+    /// Draws triangle `a b c` (camera coordinates) in colour `base`, flat-shaded with its
+    /// normal turned towards the camera, where it is nearer than what is drawn.
+    fn draw_triangle(&mut self, a: [f64; 3], b: [f64; 3], c: [f64; 3], base: [u8; 3]) {
+        let Some(mut normal) = normalize(cross(sub(b, a), sub(c, a))) else {
+            return;
+        };
+        if normal[2] > 0.0 {
+            normal = normal.map(|x| -x);
+        }
+        let lambert = dot(normal, self.light).max(0.0);
+        let shade = (self.ambient + (1.0 - self.ambient) * lambert) as f32;
+        let colour = base.map(|x| f32::from(x) * shade);
+        // Screen-space edge functions: w_a, w_b, w_c ≥ 0 inside (either winding).
+        let area = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
+        if area.abs() < 1e-30 {
+            return;
+        }
+        let (xs, ys) = (
+            self.cols(a[0].min(b[0]).min(c[0]), a[0].max(b[0]).max(c[0])),
+            self.rows(a[1].min(b[1]).min(c[1]), a[1].max(b[1]).max(c[1])),
+        );
+        let edge = |p: [f64; 3], q: [f64; 3], x: f64, y: f64| {
+            ((q[0] - p[0]) * (y - p[1]) - (x - p[0]) * (q[1] - p[1])) / area
+        };
+        for j in ys {
+            let py = self.to_screen_y(j);
+            for i in xs.clone() {
+                let px = self.to_screen_x(i);
+                let (wa, wb, wc) = (edge(b, c, px, py), edge(c, a, px, py), edge(a, b, px, py));
+                if wa < 0.0 || wb < 0.0 || wc < 0.0 {
+                    continue;
+                }
+                let t = wa * a[2] + wb * b[2] + wc * c[2];
+                let k = j * self.sw as usize + i;
+                if t < self.depth[k] {
+                    self.depth[k] = t;
+                    self.colour[k] = colour;
+                }
+            }
+        }
     }
 
     /// Draws the capsule around segment `a`–`b` (camera coordinates) in colour `base`, shaded

@@ -21,6 +21,16 @@
 //!         interpolation = "constant"
 //!     )
 //! }
+//!
+//! def Mesh "Mesh0"                      (one per mesh of UsdOptions::meshes, if any)
+//! {
+//!     int[] faceVertexCounts = [3, 3, …]
+//!     int[] faceVertexIndices = [i, j, k, …]
+//!     point3f[] points = [(x, y, z), …]
+//!     color3f[] primvars:displayColor = [(r, g, b)] (
+//!         interpolation = "constant"
+//!     )
+//! }
 //! ```
 //! Points are in metres (`metersPerUnit = 1`). Every curve with at least two vertices is
 //! written (linear curves need two); a closed curve with more than two vertices repeats its
@@ -31,6 +41,7 @@ use std::io::Write;
 
 use crate::error::{OutputError, Result};
 use crate::polylines::{Polylines, UpAxis};
+use crate::render::MeshLayer;
 
 /// What the caller chooses for a `.usda` file.
 #[derive(Clone, Copy, Debug)]
@@ -41,9 +52,12 @@ pub struct UsdOptions<'a> {
     pub up: UpAxis,
     /// The layer's doc string.
     pub comment: &'a str,
+    /// Triangle meshes written beside the curves (obstacles, a body); usually none.
+    pub meshes: &'a [MeshLayer<'a>],
 }
 
-/// Writes `lines` as a `.usda` layer; fails when the radius is not finite and positive.
+/// Writes `lines` (and the meshes of `options`) as a `.usda` layer; fails when the radius is
+/// not finite and positive or a mesh triangle indexes beyond its vertices.
 pub fn write<T: Copy + Into<f64>>(
     w: &mut dyn Write,
     lines: &Polylines<'_, T>,
@@ -54,6 +68,18 @@ pub fn write<T: Copy + Into<f64>>(
             name: "radius",
             message: format!("expected a finite radius > 0 m, found {}", options.radius),
         });
+    }
+    for m in options.meshes {
+        if m.triangles
+            .iter()
+            .flatten()
+            .any(|&i| i as usize >= m.positions.len())
+        {
+            return Err(OutputError::Invalid(format!(
+                "a mesh triangle indexes beyond its {} vertices",
+                m.positions.len()
+            )));
+        }
     }
     Ok(write_unchecked(w, lines, options))
 }
@@ -91,7 +117,32 @@ fn write_unchecked<T: Copy + Into<f64>>(
         w,
         "    float[] widths = [{width}] (\n        interpolation = \"constant\"\n    )"
     )?;
-    writeln!(w, "}}")
+    writeln!(w, "}}")?;
+    for (m, mesh) in options.meshes.iter().enumerate() {
+        writeln!(w, "\ndef Mesh \"Mesh{m}\"\n{{")?;
+        let counts = vec!["3"; mesh.triangles.len()].join(", ");
+        writeln!(w, "    int[] faceVertexCounts = [{counts}]")?;
+        let indices: Vec<String> = mesh
+            .triangles
+            .iter()
+            .flatten()
+            .map(u32::to_string)
+            .collect();
+        writeln!(w, "    int[] faceVertexIndices = [{}]", indices.join(", "))?;
+        write!(w, "    point3f[] points = [")?;
+        for (i, p) in mesh.positions.iter().enumerate() {
+            let [x, y, z] = p.map(|c| c as f32);
+            let sep = if i == 0 { "" } else { ", " };
+            write!(w, "{sep}({x}, {y}, {z})")?;
+        }
+        writeln!(w, "]")?;
+        let [r, g, b] = mesh.colour.map(|c| f32::from(c) / 255.0);
+        writeln!(
+            w,
+            "    color3f[] primvars:displayColor = [({r}, {g}, {b})] (\n        interpolation = \"constant\"\n    )\n}}"
+        )?;
+    }
+    Ok(())
 }
 
 /// The `.usda` text of `lines` (see [`write`]).

@@ -83,6 +83,7 @@ fn usda_parses_with_an_independent_usd_parser() {
         radius: 0.5e-3,
         up: UpAxis::Y,
         comment: "yarn-output \"test\" curves",
+        meshes: &[],
     };
     let text = usda::to_string(&sample().view(), &options).unwrap();
     let data = openusd::usda::parse(&text).unwrap_or_else(|e| panic!("{e:#}\n{text}"));
@@ -122,4 +123,45 @@ fn usda_parses_with_an_independent_usd_parser() {
         ..options
     };
     assert!(usda::to_string(&sample().view(), &bad).is_err());
+
+    // A mesh beside the curves is a Mesh prim the parser reads back.
+    let positions = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.5]];
+    let layer = yarn_output::render::MeshLayer {
+        positions: &positions,
+        triangles: &[[0, 1, 2]],
+        colour: [255, 0, 0],
+    };
+    let meshes = [layer];
+    let with_mesh = UsdOptions {
+        meshes: &meshes,
+        ..options
+    };
+    let text = usda::to_string(&sample().view(), &with_mesh).unwrap();
+    let data = openusd::usda::parse(&text).unwrap_or_else(|e| panic!("{e:#}\n{text}"));
+    let spec = data
+        .spec(&Path::new("/Mesh0").unwrap())
+        .expect("a Mesh0 prim");
+    assert!(
+        spec.fields
+            .iter()
+            .any(|(k, v)| k == "typeName" && matches!(v, Value::Token(t) if t.as_str() == "Mesh"))
+    );
+    let indices = data
+        .spec(&Path::new("/Mesh0.faceVertexIndices").unwrap())
+        .expect("indices");
+    assert!(
+        indices
+            .fields
+            .iter()
+            .any(|(k, v)| k == "default" && matches!(v, Value::IntVec(i) if i == &[0, 1, 2]))
+    );
+    let broken = yarn_output::render::MeshLayer {
+        triangles: &[[0, 1, 3]],
+        ..layer
+    };
+    let bad_mesh = UsdOptions {
+        meshes: &[broken],
+        ..options
+    };
+    assert!(usda::to_string(&sample().view(), &bad_mesh).is_err());
 }

@@ -298,3 +298,75 @@ fn invalid_options_and_polylines_are_errors() {
         })
     ));
 }
+
+/// A triangle mesh drawn with the tubes: a square (two triangles, either winding) in front of
+/// a tube hides it where they overlap and is flat-shaded in its colour; behind the tube it is
+/// hidden by it; outside the square the tube shows; auto framing fits the mesh; a triangle
+/// index beyond the vertices is an error.
+#[test]
+fn meshes_share_the_depth_buffer_with_the_tubes() {
+    use yarn_output::render::{MeshLayer, render_scene};
+    let grey = [150, 150, 150];
+    let c = Curves::new(&[&[[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]]]);
+    let square = |z: f64| {
+        vec![
+            [-0.5, -0.5, z],
+            [0.5, -0.5, z],
+            [0.5, 0.5, z],
+            [-0.5, 0.5, z],
+        ]
+    };
+    let options = RenderOptions {
+        palette: vec![[220, 20, 20]],
+        ambient: 1.0,
+        framing: Framing::Fixed {
+            center: [0.0, 0.0],
+            pixels_per_metre: 50.0,
+        },
+        ..RenderOptions::new(101, 101, 0.1)
+    };
+    for triangles in [[[0, 1, 2], [0, 2, 3]], [[0, 2, 1], [0, 3, 2]]] {
+        for (z, mesh_in_front) in [(0.5, true), (-0.5, false)] {
+            let positions = square(z);
+            let layer = MeshLayer {
+                positions: &positions,
+                triangles: &triangles,
+                colour: grey,
+            };
+            let r = render_scene(&c.lines(), &[layer], &options).unwrap();
+            let centre = r.image.pixel(50, 50);
+            if mesh_in_front {
+                assert_eq!(centre, grey, "the square hides the tube");
+            } else {
+                assert_eq!(centre, [220, 20, 20], "the tube hides the square");
+            }
+            // Off the tube inside the square: the mesh; beyond the square on the tube: the tube.
+            assert_eq!(r.image.pixel(50, 70), grey);
+            assert_eq!(r.image.pixel(95, 50), [220, 20, 20]);
+            assert!(is_background(&r.image, 95, 95));
+        }
+    }
+    // Auto framing fits a mesh larger than the curves.
+    let big = square(0.0)
+        .into_iter()
+        .map(|p| p.map(|x| 4.0 * x))
+        .collect::<Vec<_>>();
+    let layer = MeshLayer {
+        positions: &big,
+        triangles: &[[0, 1, 2], [0, 2, 3]],
+        colour: grey,
+    };
+    let auto = render_scene(&c.lines(), &[layer], &RenderOptions::new(100, 100, 0.1)).unwrap();
+    match auto.framing {
+        Framing::Fixed {
+            pixels_per_metre, ..
+        } => assert!(pixels_per_metre < 100.0 / 4.0, "{pixels_per_metre}"),
+        other => panic!("{other:?}"),
+    }
+    let bad = MeshLayer {
+        positions: &big,
+        triangles: &[[0, 1, 4]],
+        colour: grey,
+    };
+    assert!(render_scene(&c.lines(), &[bad], &RenderOptions::new(10, 10, 0.1)).is_err());
+}

@@ -9,7 +9,7 @@ use rod::geometry::V3;
 use serde::Deserialize;
 use std::path::Path;
 use yarn_output::bcc::{BccHeader, CurveType};
-use yarn_output::render::{RenderOptions, Rendering, render_tubes};
+use yarn_output::render::{MeshLayer, RenderOptions, Rendering, render_scene};
 use yarn_output::usda::UsdOptions;
 use yarn_output::{PolylineBuf, UpAxis};
 
@@ -237,10 +237,21 @@ impl RenderCurves {
 
     /// USD ASCII text of the samples ([`yarn_output::usda`], up axis Y, width `2R`).
     pub fn usda_text(&self, radius: f64) -> Result<String, OutputError> {
+        self.usda_text_with(radius, &[])
+    }
+
+    /// [`RenderCurves::usda_text`] with triangle meshes (e.g. the mesh obstacles,
+    /// [`crate::output::ObstacleMeshes`]) written beside the yarns as `Mesh` prims.
+    pub fn usda_text_with(
+        &self,
+        radius: f64,
+        meshes: &[MeshLayer<'_>],
+    ) -> Result<String, OutputError> {
         let options = UsdOptions {
             radius,
             up: UpAxis::Y,
             comment: COMMENT,
+            meshes,
         };
         Ok(yarn_output::usda::to_string(
             &self.polylines(true)?.view(),
@@ -251,9 +262,22 @@ impl RenderCurves {
     /// Renders the samples as tubes with [`yarn_output::render::render_tubes`]; `path`
     /// only names the image in errors.
     pub fn render(&self, options: &RenderOptions, path: &Path) -> Result<Rendering, OutputError> {
-        render_tubes(&self.polylines(true)?.view(), options).map_err(|e| OutputError::Render {
-            path: path.to_path_buf(),
-            message: e.to_string(),
+        self.render_with(options, &[], path)
+    }
+
+    /// [`RenderCurves::render`] with triangle meshes drawn into the same image
+    /// ([`yarn_output::render::render_scene`]).
+    pub fn render_with(
+        &self,
+        options: &RenderOptions,
+        meshes: &[MeshLayer<'_>],
+        path: &Path,
+    ) -> Result<Rendering, OutputError> {
+        render_scene(&self.polylines(true)?.view(), meshes, options).map_err(|e| {
+            OutputError::Render {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            }
         })
     }
 }

@@ -210,6 +210,8 @@ impl FrameWriter {
         } else {
             None
         };
+        let obstacles = super::ObstacleMeshes::of(sim);
+        let layers = obstacles.layers();
         let mut paths = Vec::with_capacity(self.spec.formats.len());
         for &format in &self.spec.formats {
             let path = self.dir.join(format.file_name(frame));
@@ -218,9 +220,10 @@ impl FrameWriter {
                 (Format::Obj, Some(c)) => write_file(&path, c.obj_text()?.as_bytes())?,
                 (Format::Ply, Some(c)) => write_file(&path, c.ply_text()?.as_bytes())?,
                 (Format::Bcc, Some(c)) => write_file(&path, &c.bcc_bytes(self.spec.bcc)?)?,
-                (Format::Usda, Some(c)) => {
-                    write_file(&path, c.usda_text(self.curve.radius)?.as_bytes())?
-                }
+                (Format::Usda, Some(c)) => write_file(
+                    &path,
+                    c.usda_text_with(self.curve.radius, &layers)?.as_bytes(),
+                )?,
                 (Format::Png, Some(c)) => {
                     let mut options = RenderOptions::new(
                         self.spec.png_size[0],
@@ -230,7 +233,7 @@ impl FrameWriter {
                     options.camera = self.spec.view.camera();
                     options.supersample = self.spec.supersample;
                     options.framing = self.framing.unwrap_or(Framing::Auto { margin: 0.1 });
-                    let r = c.render(&options, &path)?;
+                    let r = c.render_with(&options, &layers, &path)?;
                     if r.segments > 0 {
                         self.framing.get_or_insert(r.framing);
                     }

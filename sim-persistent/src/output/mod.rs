@@ -85,6 +85,8 @@
 //!   yarn), 8-bit RGB.
 //! - **Nodes OBJ** ([`nodes_obj_text`], `.nodes.obj`): the simulated geometry itself — one `v`
 //!   per contact node and one `l` per yarn through its passes (the straight segments).
+//! - **Mesh obstacles** ([`ObstacleMeshes`]) are drawn into the PNG frames and written as
+//!   `Mesh` prims beside the yarns into the USD frames (OBJ, PLY and `.bcc` hold yarns only).
 
 mod curves;
 mod frames;
@@ -124,6 +126,47 @@ pub enum OutputError {
         /// The renderer's message.
         message: String,
     },
+}
+
+/// The colour of mesh obstacles in images and USD files (a light skin tone).
+pub const OBSTACLE_COLOUR: [u8; 3] = [222, 196, 170];
+
+/// The mesh obstacles of a simulator where they are now (static, or where the last step moved
+/// an animated one), owned so that [`ObstacleMeshes::layers`] can lend them to the renderer
+/// and the USD writer.
+#[derive(Clone, Debug, Default)]
+pub struct ObstacleMeshes {
+    meshes: Vec<(Vec<[f64; 3]>, Vec<[u32; 3]>)>,
+}
+
+impl ObstacleMeshes {
+    /// The mesh obstacles of `sim` (none: spheres and planes are not drawn).
+    pub fn of(sim: &Simulator) -> Self {
+        let meshes = sim
+            .obstacles()
+            .iter()
+            .filter_map(|o| match &o.shape {
+                crate::forces::obstacle::Shape::Mesh(m) => Some((
+                    m.mesh.vertices().iter().map(|v| [v.x, v.y, v.z]).collect(),
+                    m.mesh.triangles().to_vec(),
+                )),
+                _ => None,
+            })
+            .collect();
+        Self { meshes }
+    }
+
+    /// The meshes as layers of [`OBSTACLE_COLOUR`].
+    pub fn layers(&self) -> Vec<yarn_output::render::MeshLayer<'_>> {
+        self.meshes
+            .iter()
+            .map(|(positions, triangles)| yarn_output::render::MeshLayer {
+                positions,
+                triangles,
+                colour: OBSTACLE_COLOUR,
+            })
+            .collect()
+    }
 }
 
 /// The comment line of our OBJ, PLY and USD files.
