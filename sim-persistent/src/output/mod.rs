@@ -136,8 +136,11 @@ pub const OBSTACLE_COLOUR: [u8; 3] = [222, 196, 170];
 /// and the USD writer.
 #[derive(Clone, Debug, Default)]
 pub struct ObstacleMeshes {
-    meshes: Vec<(Vec<[f64; 3]>, Vec<[u32; 3]>)>,
+    meshes: Vec<OwnedMesh>,
 }
+
+/// Vertex positions (m) and triangles of one mesh.
+type OwnedMesh = (Vec<[f64; 3]>, Vec<[u32; 3]>);
 
 impl ObstacleMeshes {
     /// The mesh obstacles of `sim` (none: spheres and planes are not drawn).
