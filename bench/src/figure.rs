@@ -172,6 +172,7 @@ pub fn all_figures() -> Vec<FigureSpec> {
         persistent_plasticity::spec(),
         persistent_patterns_on_sphere::spec(),
         persistent_stitches::spec(),
+        persistent_garment::spec(),
         persistent_pullout::spec(),
         persistent_time_vs_error::spec(),
         yarn_fit::spec(),

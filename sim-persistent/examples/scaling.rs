@@ -5,9 +5,15 @@
 //!
 //! ```text
 //! cargo run --release -p sim-persistent --example scaling -- \
-//!     [--sides 8,16,32,72,100,144,224] [--configs newton-chol,linear-pcg,...] \
-//!     [--steps 3] [--max-chol-dofs 250000] [--budget 600]
+//!     [--scene garter|sweater] [--sides 8,16,32,72,100,144,224] \
+//!     [--configs newton-chol,linear-pcg,...] [--steps 3] [--max-chol-dofs 250000] [--budget 600]
 //! ```
+//!
+//! `--scene sweater` times a garment instead (issue 18): a sweater body knitted in the round
+//! (`sim_persistent::experiment::garment::sweater_chart`, 8 sectors of `n` loops around)
+//! dressed on a mannequin mesh, from its dressed layout (the wrapping ramp contracts it onto
+//! the body); `n = 40` is ≈ 51 K loops and ≈ 1 M DoFs, the paper's sweater (56 K loops,
+//! 1.1 M DoFs).
 //!
 //! For square garter swatches of `n × n` stitches (Table 1 sweater yarn, loop width 3 mm,
 //! Rayleigh α = 10 /s, β = 0.01 s, every implemented force term, gravity, bind-off edge
@@ -172,11 +178,37 @@ fn reset_peak_rss() {
     let _ = std::fs::write("/proc/self/clear_refs", "5");
 }
 
-/// Builds, warms up and times the `n × n` swatch under `config`; prints its row.
-fn measure(n: usize, config: &Config, steps: usize) {
+/// The sweater of size `n` dressed on a mannequin (`--scene sweater`): 8 sectors of `n`
+/// loops around, a rib hem of `n/4` rounds, `3.3 n` plain rounds and a yoke narrowing every
+/// round to `0.6 n` loops per sector; the mannequin's height is `0.75 m × n/40` (its chest
+/// fits the contracted knit). `n = 40`: 320 loops around, ≈ 51 K loops, ≈ 1 M DoFs.
+fn sweater(n: usize, settings: StepSettings) -> Simulator {
+    use sim_persistent::experiment::garment::{Dressing, mannequin, sweater_chart};
+    let hem = (n / 4).max(1);
+    let body = (3.3 * n as f64).round() as usize;
+    let neck = ((0.6 * n as f64).round() as usize).max(1);
+    let chart = sweater_chart(8, n, hem, body, neck).expect("sweater chart");
+    let profile = mannequin(0.75 * n as f64 / 40.0);
+    Dressing::new(&chart, &profile, 96, settings)
+        .expect("dressing")
+        .sim
+}
+
+/// The scene of `--scene`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Scene {
+    Garter,
+    Sweater,
+}
+
+/// Builds, warms up and times the scene of size `n` under `config`; prints its row.
+fn measure(scene: Scene, n: usize, config: &Config, steps: usize) {
     reset_peak_rss();
     let build_start = Instant::now();
-    let mut sim = hanging_garter(n, config.settings());
+    let mut sim = match scene {
+        Scene::Garter => hanging_garter(n, config.settings()),
+        Scene::Sweater => sweater(n, config.settings()),
+    };
     let build = build_start.elapsed().as_secs_f64();
     let n_dofs = sim.dofs().n_dofs();
     let warm_start = Instant::now();
@@ -262,13 +294,22 @@ fn main() {
             .collect(),
     };
     let steps: usize = arg("--steps").map_or(3, |s| s.parse().expect("--steps: integer"));
+    let scene = match arg("--scene").as_deref() {
+        None | Some("garter") => Scene::Garter,
+        Some("sweater") => Scene::Sweater,
+        Some(other) => panic!("--scene: garter or sweater, got {other}"),
+    };
     let max_chol: f64 = arg("--max-chol-dofs").map_or(2.5e5, |s| s.parse().expect("number"));
     let budget: f64 = arg("--budget").map_or(600.0, |s| s.parse().expect("--budget: seconds"));
     let threads = rayon::current_num_threads();
+    let what = match scene {
+        Scene::Garter => "hanging garter n × n",
+        Scene::Sweater => "sweater of 8 sectors of n loops dressed on a mannequin mesh",
+    };
     println!(
-        "scaling: hanging garter n × n, sweater yarn, dt = 1 ms, α = 10 /s, β = 0.01 s, all \
-         terms; {threads} rayon threads; {steps} timed steps after one warm-up; times in ms \
-         per step"
+        "scaling: {what}, sweater yarn, dt = 1 ms, α = 10 /s, β = 0.01 s, all terms; \
+         {threads} rayon threads; {steps} timed steps after one warm-up; times in ms per step \
+         (a 30 fps frame is 33 steps)"
     );
     println!(
         "{:<15} {:>4} {:>8} {:>7} {:>8} {:>9} {:>8} {:>8} {:>8} {:>7} {:>5} {:>7} {:>9} {:>11} {:>8}",
@@ -290,7 +331,10 @@ fn main() {
     );
     let start = Instant::now();
     for n in sides {
-        let dofs = 20.2 * (n * n) as f64;
+        let dofs = match scene {
+            Scene::Garter => 20.2 * (n * n) as f64,
+            Scene::Sweater => 20.2 * 8.0 * 3.6 * (n * n) as f64,
+        };
         for config in &configs {
             if config.pcg.is_none() && dofs > max_chol {
                 println!(
@@ -303,7 +347,7 @@ fn main() {
                 println!("budget of {budget:.0} s spent; stopping");
                 return;
             }
-            measure(n, config, steps);
+            measure(scene, n, config, steps);
         }
     }
     println!("total {:.1} s", start.elapsed().as_secs_f64());

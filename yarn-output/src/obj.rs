@@ -1,9 +1,10 @@
-//! Wavefront OBJ polylines.
+//! Wavefront OBJ polylines (and triangle meshes).
 //!
 //! Written exactly as: one `# <comment>` line; one `v x y z` line per vertex (m, `f64` in
 //! Rust's shortest round-trip form); then one `l i₀ i₁ …` element per curve with at least two
 //! vertices (1-based indices; a closed curve with more than two vertices repeats its first
-//! index at the end).
+//! index at the end). Triangle meshes ([`write_triangles`]) have `f i j k` elements instead;
+//! [`crate::obj_mesh`] reads them back.
 
 use std::io::Write;
 
@@ -58,5 +59,34 @@ pub fn indexed_to_string(
 ) -> String {
     let mut out = Vec::new();
     write_indexed(&mut out, points, paths, comment).expect("writing to a Vec cannot fail");
+    String::from_utf8(out).expect("OBJ text is UTF-8")
+}
+
+/// Writes OBJ text of a triangle mesh: vertices `points` (m) and one `f i j k` element per
+/// triangle (0-based indices into `points`, written 1-based).
+pub fn write_triangles(
+    w: &mut dyn Write,
+    points: impl IntoIterator<Item = [f64; 3]>,
+    triangles: &[[u32; 3]],
+    comment: &str,
+) -> std::io::Result<()> {
+    writeln!(w, "# {comment}")?;
+    for [x, y, z] in points {
+        writeln!(w, "v {x} {y} {z}")?;
+    }
+    for [i, j, k] in triangles {
+        writeln!(w, "f {} {} {}", i + 1, j + 1, k + 1)?;
+    }
+    Ok(())
+}
+
+/// The OBJ text of a triangle mesh (see [`write_triangles`]).
+pub fn triangles_to_string(
+    points: impl IntoIterator<Item = [f64; 3]>,
+    triangles: &[[u32; 3]],
+    comment: &str,
+) -> String {
+    let mut out = Vec::new();
+    write_triangles(&mut out, points, triangles, comment).expect("writing to a Vec cannot fail");
     String::from_utf8(out).expect("OBJ text is UTF-8")
 }

@@ -6,7 +6,8 @@ use sim_persistent::integrator::Simulator;
 
 /// `sim`'s yarns rendered as tubes of the yarn radius: the smooth rendering curves of
 /// `sim_persistent::output` (each yarn offset by ±R from its contact nodes along the node
-/// normal, Catmull-Rom between), seen along `direction` with `up` on screen.
+/// normal, Catmull-Rom between), seen along `direction` with `up` on screen, with the
+/// simulator's mesh obstacles (a body) drawn in the same image.
 pub fn render(
     sim: &Simulator,
     radius: f64,
@@ -14,7 +15,7 @@ pub fn render(
     direction: [f64; 3],
     up: [f64; 3],
 ) -> anyhow::Result<yarn_output::render::Rendering> {
-    use sim_persistent::output::{CurveOptions, RenderCurves};
+    use sim_persistent::output::{CurveOptions, ObstacleMeshes, RenderCurves};
     use yarn_output::render::{Camera, Framing, RenderOptions};
     let curves = RenderCurves::from_simulator(
         sim,
@@ -29,5 +30,10 @@ pub fn render(
         supersample: 2,
         ..RenderOptions::new(size.0, size.1, radius)
     };
-    Ok(curves.render(&options, std::path::Path::new("figure image"))?)
+    let meshes = ObstacleMeshes::of(sim);
+    Ok(curves.render_with(
+        &options,
+        &meshes.layers(),
+        std::path::Path::new("figure image"),
+    )?)
 }

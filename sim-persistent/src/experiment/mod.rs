@@ -12,11 +12,13 @@
 //! | [`drape`] | drape measures: projected-area ratio, corner drop, penetration | seed 000 §5.2.1 |
 //! | [`sphere_drop`] | swatches dropped onto a sphere with sticking contacts until at rest | seed 000 §5.2.1, Fig. 12 |
 //! | [`pullout`] | yarn pull-out: one row's yarn pulled out of a garter with its edges pinned, contacts breaking as the free end slides through them | seed 000 §5.2.4, Fig. 13 |
+//! | [`garment`] | garments knitted in the round from charts (a hat, a sweater body with a yoke) dressed on a body mesh (a surface of revolution: a head, a mannequin) | seed 000 §5.3, Fig. 1 |
 //! | [`uniaxial`] | the virtual swatch test: quasi-static clamped uniaxial stretch, force and orthogonal compression | seed 002 §4.3 |
 
 pub mod clamps;
 pub mod cycles;
 pub mod drape;
+pub mod garment;
 pub mod pull;
 pub mod pullout;
 pub mod sphere_drop;
