@@ -683,6 +683,7 @@ impl ConstrainedNewtonSolver {
             &mut self.assembler,
             &mut self.system,
             v0,
+            0.0,
         )
     }
 

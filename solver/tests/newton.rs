@@ -363,3 +363,62 @@ fn exact_hessian_newton_escapes_a_saddle_along_negative_curvature() {
     );
     assert!(report.iterations <= 20, "{} iterations", report.iterations);
 }
+
+/// `warm_start_regularization`: one-iteration runs (linearized steps) from the same point in
+/// the concave region of the double well need the same shift every run. Cold, every run
+/// escalates from `μ₀ s` and makes the same number of linear solves; warm, the runs after the
+/// first start one factor below the last shift and need fewer solves, and every run takes
+/// the same step (bit for bit) as the cold one.
+#[test]
+fn warm_started_regularization_skips_the_escalation() {
+    let n = 12;
+    let problem = DoubleWell::new(n, 0.1);
+    let x0: Vec<f64> = (0..n).map(|i| 0.1 * (i as f64).sin()).collect();
+    let base = NewtonSettings {
+        project_spd: false,
+        max_iterations: 1,
+        line_search: false,
+        accept_iteration_limit: true,
+        ..Default::default()
+    };
+    let mut results = Vec::new();
+    for warm in [false, true] {
+        let settings = NewtonSettings {
+            warm_start_regularization: warm,
+            ..base.clone()
+        };
+        let mut solver = NewtonSolver::new(&problem, &vec![false; n]).unwrap();
+        let mut runs = Vec::new();
+        for _ in 0..3 {
+            let mut x = x0.clone();
+            let report = solver.minimize(&problem, &mut x, &settings).unwrap();
+            runs.push((x, report.linear_solves, report.regularizations[0]));
+        }
+        results.push(runs);
+    }
+    let (cold, warm) = (&results[0], &results[1]);
+    eprintln!(
+        "linear solves per run: cold {:?}, warm {:?}; shift {:.3e}",
+        cold.iter().map(|r| r.1).collect::<Vec<_>>(),
+        warm.iter().map(|r| r.1).collect::<Vec<_>>(),
+        cold[0].2
+    );
+    assert!(cold[0].2 > 0.0, "the start needs a shift");
+    assert!(cold.iter().all(|r| r.1 == cold[0].1) && cold[0].1 >= 4);
+    assert_eq!(
+        warm[0].1, cold[0].1,
+        "the first warm run has nothing to start from"
+    );
+    for k in 1..3 {
+        assert!(
+            warm[k].1 < cold[k].1,
+            "run {k}: {} vs {}",
+            warm[k].1,
+            cold[k].1
+        );
+    }
+    for (c, w) in cold.iter().zip(warm) {
+        assert_eq!(c.2, w.2, "the same shift");
+        assert_eq!(c.0, w.0, "the same step");
+    }
+}

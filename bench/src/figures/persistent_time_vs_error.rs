@@ -1,7 +1,10 @@
 //! `persistent-time-vs-error`: wall time of a rib-stretch pull (see `rib-stretch`) against
 //! the error of its force curve relative to a small-step, tight-tolerance reference,
 //! sweeping the time step (with the friction return mapping and with the paper's explicit
-//! anchor update, the simulator's default) and the Newton tolerance.
+//! anchor update, the simulator's default), the Newton tolerance, and the time step of the
+//! fast configuration (linearized implicit Euler, one Newton iteration per step, IC(0)-CG
+//! at relative tolerance 1e-3, the diagonal shift warm-started from step to step: what
+//! `examples/scaling.rs` times at 1 M DoFs), so that its speed is reported with its error.
 //!
 //! Every pull starts from one rib settled free at the reference settings, so the error is
 //! that of the pull alone (earlier versions settled each run with its own step and folded
@@ -35,7 +38,7 @@ pub fn spec() -> FigureSpec {
     FigureSpec {
         name: "persistent-time-vs-error",
         title: "Persistent contacts: run time against rib-stretch force error",
-        shows: "wall time of a rib-stretch pull (one shared settle, then a pull per setting) against the RMS error of its force curve (relative to the reference's peak pull) vs a small-step, tight-tolerance reference with Coulomb-consistent friction (return mapping); families: time step with the return mapping, time step with the paper's explicit anchor update, Newton force tolerance",
+        shows: "wall time of a rib-stretch pull (one shared settle, then a pull per setting) against the RMS error of its force curve (relative to the reference's peak pull) vs a small-step, tight-tolerance reference with Coulomb-consistent friction (return mapping); families: time step with the return mapping, time step with the paper's explicit anchor update, Newton force tolerance, time step with linearized steps and IC-CG (the fast configuration, shift warm-started)",
         paper: "our study (no paper figure); the paper runs dt = 1 ms",
         guarded: false,
         run,
@@ -51,13 +54,20 @@ enum Family {
     DtExplicit(f64),
     /// Newton force tolerance at dt = 1 ms, return mapping.
     Tolerance(f64),
+    /// Time step, linearized implicit Euler with IC(0)-CG (the fast configuration of
+    /// `examples/scaling.rs`), return mapping.
+    Linearized(f64),
 }
 
+/// Relative CG tolerance of the linearized family (scaling's `linear-ic-lag-3`).
+const LINEARIZED_CG_TOL: f64 = 1e-3;
+
 /// Legend names of the families, in [`Family::index`] order.
-const FAMILIES: [&str; 3] = [
+const FAMILIES: [&str; 4] = [
     "time step, implicit friction (return mapping)",
     "time step, explicit anchor update (paper)",
     "Newton tolerance (dt = 1 ms, implicit friction)",
+    "time step, linearized steps, IC-CG (implicit friction)",
 ];
 
 impl Family {
@@ -66,23 +76,31 @@ impl Family {
             Family::Dt(_) => 0,
             Family::DtExplicit(_) => 1,
             Family::Tolerance(_) => 2,
+            Family::Linearized(_) => 3,
         }
     }
 
     fn value(self) -> f64 {
         match self {
-            Family::Dt(v) | Family::DtExplicit(v) | Family::Tolerance(v) => v,
+            Family::Dt(v)
+            | Family::DtExplicit(v)
+            | Family::Tolerance(v)
+            | Family::Linearized(v) => v,
         }
     }
 
     /// The pull settings of this run.
     fn settings(self, reference_tol: f64) -> SwatchSettings {
         let (dt, tol, return_mapping) = match self {
-            Family::Dt(dt) => (dt, reference_tol, true),
+            Family::Dt(dt) | Family::Linearized(dt) => (dt, reference_tol, true),
             Family::DtExplicit(dt) => (dt, reference_tol, false),
             Family::Tolerance(t) => (1e-3, t, true),
         };
-        settings(dt, tol, return_mapping)
+        let mut s = settings(dt, tol, return_mapping);
+        if let Family::Linearized(_) = self {
+            s.linearized_cg = Some(LINEARIZED_CG_TOL);
+        }
+        s
     }
 
     fn key(self) -> String {
@@ -90,6 +108,7 @@ impl Family {
             Family::Dt(dt) => format!("dt = {:.4} ms, return mapping", 1e3 * dt),
             Family::DtExplicit(dt) => format!("dt = {:.4} ms, explicit anchors", 1e3 * dt),
             Family::Tolerance(t) => format!("Newton |g| ≤ {t:.0e} N"),
+            Family::Linearized(dt) => format!("dt = {:.4} ms, linearized, IC-CG", 1e3 * dt),
         }
     }
 }
@@ -161,6 +180,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let mut runs: Vec<Family> = dts.iter().map(|&d| Family::Dt(d)).collect();
     runs.extend(dts.iter().map(|&d| Family::DtExplicit(d)));
     runs.extend(tolerances.iter().map(|&t| Family::Tolerance(t)));
+    runs.extend(dts.iter().map(|&d| Family::Linearized(d)));
     let progress = ctx.progress(runs.len() as u64 + 2, "runs");
     let reference_settings = settings(reference_dt, reference_tol, true);
     // The settle uses the simulator's default (explicit) friction update.
@@ -181,7 +201,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         "newton_iterations",
         "dofs",
     ]);
-    let mut points: [Vec<(f64, f64)>; 3] = Default::default();
+    let mut points: [Vec<(f64, f64)>; 4] = Default::default();
     let mut summary = vec![
         (
             "settle (shared)".to_string(),
@@ -256,6 +276,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         }
     }
     chart.save(&ctx.out_dir, ctx.name)?;
+    garment_study(ctx, &mut data, &mut summary)?;
     Ok(FigureOutput {
         summary,
         config: serde_json::json!({
@@ -263,7 +284,131 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             "size": if q { "4x4" } else { "8x6" },
             "reference_dt_s": reference_dt, "reference_newton_abs_tol_n": reference_tol,
             "dts_s": dts, "tolerances_n": tolerances,
+            "linearized": {"cg_relative_tolerance": LINEARIZED_CG_TOL, "preconditioner": "IC(0)", "shift": "warm-started"},
+            "garment": {"hat": if q { "hat_chart(8, 4, 2, 4)" } else { "hat_chart(8, 6, 3, 6)" }, "time_s": GARMENT_TIME, "reference_dt_s": GARMENT_REFERENCE_DT, "dts_s": GARMENT_DTS},
         }),
         data,
     })
+}
+
+/// Simulated time (s) of the garment runs: the first stage of dressing (the wrapping ramp
+/// contracts the hat onto the head).
+const GARMENT_TIME: f64 = 0.05;
+
+/// Time step (s) of the garment reference (full Newton, Cholesky).
+const GARMENT_REFERENCE_DT: f64 = 1.25e-4;
+
+/// Time steps (s) of the garment runs.
+const GARMENT_DTS: [f64; 3] = [5e-4, 1e-3, 2e-3];
+
+/// The same study on a garment: a hat knitted in the round dressed on a head mesh
+/// (`sim_persistent::experiment::garment`, the `garment` figure's scene, smaller), simulated
+/// for [`GARMENT_TIME`] with full Newton (Cholesky, the default) and with linearized steps and
+/// IC-CG (the fast configuration) at each of [`GARMENT_DTS`]. Error: RMS over the nodes of
+/// the distance to the reference's node positions at the end, in yarn radii. Rows of family
+/// 4 (full Newton) and 5 (linearized) in the table; chart `…-garment`.
+fn garment_study(
+    ctx: &FigureContext,
+    data: &mut Table,
+    summary: &mut Vec<(String, String)>,
+) -> anyhow::Result<()> {
+    use sim_persistent::experiment::garment::{Dressing, LOOP_WIDTH, hat_chart, head};
+    use sim_persistent::experiment::positions;
+    let (sectors, width, brim, body) = if ctx.quick {
+        (8, 4, 2, 4)
+    } else {
+        (8, 6, 3, 6)
+    };
+    let chart = hat_chart(sectors, width, brim, body)?;
+    let radius = (sectors * width) as f64 * LOOP_WIDTH / std::f64::consts::TAU;
+    let profile = head(0.8 * radius, 0.9 * radius, 0.85 * radius);
+    let simulate =
+        |dt: f64, linearized: bool| -> anyhow::Result<(Vec<rod::geometry::V3>, f64, usize, f64)> {
+            let mut settings = StepSettings {
+                dt,
+                rayleigh_alpha: 10.0,
+                rayleigh_beta: 0.01,
+                ..StepSettings::default()
+            };
+            if linearized {
+                settings = settings.linearized_implicit_euler();
+                settings.newton.linear_solver =
+                    solver::LinearSolver::ConjugateGradient(solver::PcgSettings {
+                        relative_tolerance: LINEARIZED_CG_TOL,
+                        max_iterations: 20_000,
+                        preconditioner: solver::Preconditioner::IncompleteCholesky,
+                    });
+            }
+            let mut d = Dressing::new(&chart, &profile, 48, settings)?;
+            let steps = (GARMENT_TIME / dt).round() as usize;
+            let start = std::time::Instant::now();
+            let iterations = d.run(steps)?;
+            let seconds = start.elapsed().as_secs_f64();
+            let r = d.params.radius;
+            Ok((positions(&d.sim), seconds, iterations, d.lowest_gap() / r))
+        };
+    let (reference, reference_seconds, reference_iterations, _) =
+        simulate(GARMENT_REFERENCE_DT, false).context("garment reference")?;
+    let r = sim_persistent::params::YarnParams::sweater().radius;
+    summary.push((
+        "garment reference".into(),
+        format!(
+            "hat of {} loops around on a head, {} nodes, {GARMENT_TIME} s at dt = {GARMENT_REFERENCE_DT} s, full Newton: {reference_seconds:.1} s, {reference_iterations} Newton iterations",
+            sectors * width,
+            reference.len()
+        ),
+    ));
+    let mut points: [Vec<(f64, f64)>; 2] = Default::default();
+    for (k, linearized) in [false, true].into_iter().enumerate() {
+        for dt in GARMENT_DTS {
+            let name = format!(
+                "garment, dt = {:.2} ms, {}",
+                1e3 * dt,
+                if linearized {
+                    "linearized, IC-CG"
+                } else {
+                    "full Newton"
+                }
+            );
+            match simulate(dt, linearized) {
+                Ok((p, seconds, iterations, gap)) => {
+                    let rms = (p
+                        .iter()
+                        .zip(&reference)
+                        .map(|(a, b)| (a - b).norm_squared())
+                        .sum::<f64>()
+                        / p.len() as f64)
+                        .sqrt()
+                        / r;
+                    data.push_row([(4 + k) as f64, dt, seconds, rms, iterations as f64, 0.0]);
+                    points[k].push((rms.max(1e-12), seconds));
+                    summary.push((
+                        name,
+                        format!(
+                            "{seconds:.2} s, RMS node error {rms:.3e} R, {iterations} Newton iterations, lowest gap {gap:+.3} R"
+                        ),
+                    ));
+                }
+                Err(err) => {
+                    data.push_row([(4 + k) as f64, dt, f64::NAN, f64::NAN, 0.0, 0.0]);
+                    summary.push((name, format!("failed: {err:#}")));
+                }
+            }
+        }
+    }
+    let mut chart = LineChart::new("Hat dressed on a head: time vs position error")
+        .x_label("RMS node position error after 0.05 s (R)")
+        .y_label("wall time (s)")
+        .log_x()
+        .log_y();
+    for (k, name) in ["full Newton, Cholesky", "linearized steps, IC-CG"]
+        .iter()
+        .enumerate()
+    {
+        if !points[k].is_empty() {
+            chart = chart.series(Series::line_markers(*name, points[k].clone()));
+        }
+    }
+    chart.save(&ctx.out_dir, &format!("{}-garment", ctx.name))?;
+    Ok(())
 }

@@ -40,6 +40,10 @@ pub struct SwatchSettings {
     pub params: YarnParams,
     /// How the chart is knitted (default: one yarn per row).
     pub construction: Construction,
+    /// `Some(tol)`: linearized implicit Euler ([`StepSettings::linearized_implicit_euler`])
+    /// with IC(0)-preconditioned conjugate gradients at relative tolerance `tol` (the fast
+    /// configuration of `examples/scaling.rs`); `None` (default): full Newton, Cholesky.
+    pub linearized_cg: Option<f64>,
 }
 
 impl Default for SwatchSettings {
@@ -57,6 +61,7 @@ impl Default for SwatchSettings {
             },
             params,
             construction: Construction::default(),
+            linearized_cg: None,
         }
     }
 }
@@ -71,6 +76,14 @@ impl SwatchSettings {
             ..StepSettings::default()
         };
         s.newton.gradient_abs_tol = self.newton_abs_tol;
+        if let Some(tol) = self.linearized_cg {
+            s = s.linearized_implicit_euler();
+            s.newton.linear_solver = solver::LinearSolver::ConjugateGradient(solver::PcgSettings {
+                relative_tolerance: tol,
+                max_iterations: 20_000,
+                preconditioner: solver::Preconditioner::IncompleteCholesky,
+            });
+        }
         s
     }
 

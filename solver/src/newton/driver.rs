@@ -122,6 +122,7 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
     asm: &mut Assembler,
     system: &mut S,
     initial_constraint_violation: f64,
+    initial_shift: f64,
 ) -> Result<NewtonReport, SolveError> {
     let mut run = NewtonRun {
         problem,
@@ -132,7 +133,7 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
         x_trial: vec![0.0; x.len()],
         report: empty_report(initial_constraint_violation),
         residual0: None,
-        last_mu: 0.0,
+        last_mu: initial_shift,
         limit: if settings.accept_iteration_limit {
             Termination::IterationLimit
         } else {
@@ -170,6 +171,7 @@ fn empty_report(initial_constraint_violation: f64) -> NewtonReport {
         step_lengths: Vec::new(),
         regularizations: Vec::new(),
         line_search_backtracks: 0,
+        linear_solves: 0,
         linear_iterations: Vec::new(),
         timings: NewtonTimings::default(),
         termination: Termination::MaxIterations,
@@ -274,6 +276,7 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
                 k => base * settings.regularization_growth.powi(k as i32 - 1),
             };
             let solve_start = std::time::Instant::now();
+            self.report.linear_solves += 1;
             let solved = self.system.solve(self.asm, x, mu, &mut self.dx);
             self.report.timings.linear_solve += solve_start.elapsed().as_secs_f64();
             let residual = match solved {

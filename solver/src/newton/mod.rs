@@ -31,7 +31,10 @@
 //! `μ₀ = regularization_initial`, `γ = regularization_growth`, and `μ_prev` is the shift the
 //! previous iteration ended with, so that a run through an indefinite region does not repeat
 //! the whole escalation every iteration (as in IPOPT's inertia correction, Wächter & Biegler
-//! 2006, §3.1). Shifting the diagonal is the textbook "Hessian modification" (Nocedal & Wright
+//! 2006, §3.1). With [`NewtonSettings::warm_start_regularization`], a [`NewtonSolver`] also
+//! carries `μ_prev` from the end of one [`NewtonSolver::minimize`] to the first iteration of
+//! the next (the next time step of a simulation through the same indefinite region), instead
+//! of escalating from `μ₀ s` again; `μ = 0` is still tried first. Shifting the diagonal is the textbook "Hessian modification" (Nocedal & Wright
 //! Alg. 3.3).
 //!
 //! **Saddle escape.** When the full step is accepted but the unshifted model curves down along
@@ -126,6 +129,9 @@ pub struct NewtonSettings {
     pub constraint_tol: f64,
     /// Linear solver of the Newton system. Default [`LinearSolver::Cholesky`].
     pub linear_solver: LinearSolver,
+    /// [`NewtonSolver`] only: start the regularization of a run from the shift the previous
+    /// run of the same solver ended with (module documentation). Default `false`.
+    pub warm_start_regularization: bool,
     /// Backtracking line search (Armijo). With `false`, every step is taken at
     /// `α = min(1, α_max)` without evaluating the energy along it. Default `true`.
     pub line_search: bool,
@@ -151,6 +157,7 @@ impl Default for NewtonSettings {
             max_regularization_attempts: 14,
             constraint_tol: 1e-12,
             linear_solver: LinearSolver::Cholesky,
+            warm_start_regularization: false,
             line_search: true,
             accept_iteration_limit: false,
         }
@@ -242,6 +249,9 @@ pub struct NewtonReport {
     pub regularizations: Vec<f64>,
     /// Total number of rejected trial steps over all line searches.
     pub line_search_backtracks: usize,
+    /// Linear solves of the Newton system attempted, the failed regularization attempts
+    /// included (a run that never needs a shift has one per iteration).
+    pub linear_solves: usize,
     /// Conjugate-gradient iterations of each accepted step's linear solve (0 for Cholesky).
     pub linear_iterations: Vec<usize>,
     /// Where the run's wall time went (diagnostics only; not deterministic).
@@ -288,6 +298,8 @@ pub struct NewtonTimings {
 pub struct NewtonSolver {
     assembler: Assembler,
     system: FreeDofSystem,
+    /// The shift the last run ended with ([`NewtonSettings::warm_start_regularization`]).
+    last_shift: f64,
 }
 
 impl NewtonSolver {
@@ -296,7 +308,11 @@ impl NewtonSolver {
     pub fn new<P: Problem + ?Sized>(problem: &P, fixed: &[bool]) -> Result<Self, SolveError> {
         let assembler = Assembler::with_fixed_dofs(problem, fixed)?;
         let system = FreeDofSystem::new(&assembler);
-        Ok(Self { assembler, system })
+        Ok(Self {
+            assembler,
+            system,
+            last_shift: 0.0,
+        })
     }
 
     /// Minimizes the problem's energy over the free DOFs, starting from and overwriting `x`;
@@ -311,14 +327,24 @@ impl NewtonSolver {
         check_len("x", self.assembler.n_dofs(), x.len())?;
         self.system
             .prepare(&self.assembler, settings.linear_solver)?;
-        run_newton(
+        let start = if settings.warm_start_regularization {
+            self.last_shift
+        } else {
+            0.0
+        };
+        let result = run_newton(
             problem,
             x,
             settings,
             &mut self.assembler,
             &mut self.system,
             0.0,
-        )
+            start,
+        );
+        if let Ok(report) = &result {
+            self.last_shift = report.regularizations.last().copied().unwrap_or(start);
+        }
+        result
     }
 
     /// The assembler (pattern, last gradient and Hessian).
