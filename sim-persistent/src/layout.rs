@@ -141,7 +141,7 @@ impl Layout {
 }
 
 /// Node positions of a knit (module documentation): flat, or for [`Construction::Round`] on a
-/// tube around the z axis of circumference `loops × w` per row (a cone where the rows shape),
+/// tube around the y axis of circumference `loops × w` per row (a cone where the rows shape),
 /// its front outwards, rows along +y.
 fn knit_positions(map: &KnitMap, params: &LayoutParams, n_nodes: usize) -> Vec<V3> {
     let mut pos = vec![V3::zeros(); n_nodes];

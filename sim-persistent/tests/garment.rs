@@ -7,7 +7,7 @@
 use rod::geometry::V3;
 use sim_persistent::chart::Chart;
 use sim_persistent::experiment::garment::{
-    CLEARANCE, Dressing, Profile, hat_chart, head, mannequin, revolved, sweater_chart,
+    CLEARANCE, Dressing, Profile, hat_chart, head, head_for_hat, mannequin, revolved, sweater_chart,
 };
 use sim_persistent::experiment::positions;
 use sim_persistent::forces::obstacle::mesh::TriangleMesh;
@@ -60,7 +60,8 @@ fn revolved_bodies_are_closed_and_wound_outwards() {
         ("mannequin", mannequin(0.75)),
         ("ellipsoid", Profile::ellipsoid(0.02, 0.03, 0.025, 48)),
     ] {
-        let mesh = revolved(&profile, 96, 5e-3).unwrap();
+        // A reach beyond the bodies' sizes: every query below finds the surface.
+        let mesh = revolved(&profile, 96, 1.0).unwrap();
         let mut edges: HashMap<(u32, u32), i32> = HashMap::new();
         for t in mesh.triangles() {
             for k in 0..3 {
@@ -83,10 +84,15 @@ fn revolved_bodies_are_closed_and_wound_outwards() {
             let exact = 4.0 / 3.0 * std::f64::consts::PI * 0.02 * 0.03 * 0.025;
             assert!((v / exact - 1.0).abs() < 0.01, "{v} vs {exact}");
         }
-        // A point on the axis at mid-height is inside.
-        let mid = 0.5 * (profile.rings[0].0 + profile.rings[profile.rings.len() - 1].0);
-        let inside = mesh.signed_distance(&V3::new(0.0, mid, 0.0));
-        assert!(inside.is_none_or(|(d, _, _)| d < 0.0), "{name}");
+        // A point on the axis at mid-height is inside, one beside the body outside.
+        let (y0, y1) = (profile.rings[0].0, profile.rings[profile.rings.len() - 1].0);
+        let mid = 0.5 * (y0 + y1);
+        let (d, _, _) = mesh.signed_distance(&V3::new(0.0, mid, 0.0)).unwrap();
+        assert!(d < 0.0, "{name}: axis point at {d} m");
+        let (d, _, _) = mesh
+            .signed_distance(&V3::new(0.0, mid, y1 - y0))
+            .unwrap();
+        assert!(d > 0.0, "{name}: outside point at {d} m");
     }
     assert!(
         revolved(
@@ -115,8 +121,7 @@ fn settings() -> StepSettings {
 #[test]
 fn a_small_hat_dressed_on_a_head_stays_on_it() {
     let chart = hat_chart(4, 4, 1, 2).unwrap();
-    let radius = 16.0 * 3e-3 / std::f64::consts::TAU;
-    let profile = head(0.8 * radius, 0.9 * radius, 0.85 * radius);
+    let profile = head_for_hat(16);
     let mut d = Dressing::new(&chart, &profile, 48, settings()).unwrap();
     let r = d.params.radius;
     let start = d.lowest_gap();

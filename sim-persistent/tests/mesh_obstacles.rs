@@ -342,7 +342,7 @@ fn drop_onto_an_icosphere_matches_the_analytic_sphere() {
 }
 
 /// A 4 × 4 weave resting on a horizontal floor mesh that rises 2 mm at 1 cm/s (an animated
-/// mesh of two frames, 0.2 s apart): the floor lifts it, and at rest 0.2 s after the end of
+/// mesh of two frames, 0.2 s apart): the floor lifts it, and at rest 0.4 s after the end of
 /// the motion every node rests on the raised floor (gap within 1 % R), none went through it.
 /// The mesh at a time between frames is the linear interpolation.
 #[test]
@@ -449,9 +449,26 @@ fn scene_mesh_obstacles() {
         parse("[[obstacle]]\nkind = \"mesh\"\nfile = \"lift_*.obj\"\nfps = 30.0\nscale = 0.001\n")
             .unwrap();
     let mut run = seq.build().unwrap();
-    run.step().unwrap();
-    run.step().unwrap();
+    let lowest = |run: &sim_persistent::scene::SceneRun| match &run.sim.obstacles()[0].shape {
+        Shape::Mesh(m) => (
+            m.time,
+            m.mesh
+                .vertices()
+                .iter()
+                .map(|v| v.z)
+                .fold(f64::INFINITY, f64::min),
+        ),
+        _ => panic!("not a mesh"),
+    };
+    let (t0, z0) = lowest(&run);
+    for _ in 0..10 {
+        run.step().unwrap();
+    }
     assert!(run.sim.obstacles()[0].shape.is_animated());
+    // The sequence rises 1 mm per frame at 30 fps: after 10 ms, 0.3 mm.
+    let (t1, z1) = lowest(&run);
+    assert_eq!((t0, t1), (0.0, run.sim.time()));
+    assert!((z1 - z0 - 0.3e-3).abs() < 1e-9, "moved {} m", z1 - z0);
     let first = HEADER.lines().count() + 1;
     let cases = [
         (

@@ -368,7 +368,7 @@ fn exact_hessian_newton_escapes_a_saddle_along_negative_curvature() {
 /// the concave region of the double well need the same shift every run. Cold, every run
 /// escalates from `μ₀ s` and makes the same number of linear solves; warm, the runs after the
 /// first start one factor below the last shift and need fewer solves, and every run takes
-/// the same step (bit for bit) as the cold one.
+/// the same step as the cold one.
 #[test]
 fn warm_started_regularization_skips_the_escalation() {
     let n = 12;
@@ -417,8 +417,11 @@ fn warm_started_regularization_skips_the_escalation() {
             cold[k].1
         );
     }
+    // The same shift up to the rounding of (μ/γ)·γ, and so the same step.
     for (c, w) in cold.iter().zip(warm) {
-        assert_eq!(c.2, w.2, "the same shift");
-        assert_eq!(c.0, w.0, "the same step");
+        assert!((c.2 - w.2).abs() <= 1e-12 * c.2, "shifts {} vs {}", c.2, w.2);
+        for (a, b) in c.0.iter().zip(&w.0) {
+            assert!((a - b).abs() <= 1e-12, "steps differ: {a} vs {b}");
+        }
     }
 }

@@ -345,6 +345,23 @@ pub struct MeshLayer<'a> {
     pub colour: [u8; 3],
 }
 
+impl MeshLayer<'_> {
+    /// Errors if a triangle indexes beyond the vertices.
+    pub fn validate(&self) -> Result<()> {
+        match self
+            .triangles
+            .iter()
+            .find(|t| t.iter().any(|&i| i as usize >= self.positions.len()))
+        {
+            Some(t) => Err(OutputError::Invalid(format!(
+                "mesh triangle {t:?} indexes beyond its {} vertices",
+                self.positions.len()
+            ))),
+            None => Ok(()),
+        }
+    }
+}
+
 /// Renders the curves of `lines` as tubes (see the module documentation).
 pub fn render_tubes<T: Copy + Into<f64>>(
     lines: &Polylines<'_, T>,
@@ -364,16 +381,7 @@ pub fn render_scene<T: Copy + Into<f64>>(
     options.validate()?;
     lines.validate()?;
     for m in meshes {
-        if let Some(t) = m
-            .triangles
-            .iter()
-            .find(|t| t.iter().any(|&i| i as usize >= m.positions.len()))
-        {
-            return Err(OutputError::Invalid(format!(
-                "mesh triangle {t:?} indexes beyond its {} vertices",
-                m.positions.len()
-            )));
-        }
+        m.validate()?;
     }
     let camera_basis = basis(&options.camera)?;
     let (cam, skipped) = to_camera(lines, camera_basis);

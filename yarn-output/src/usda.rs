@@ -70,16 +70,7 @@ pub fn write<T: Copy + Into<f64>>(
         });
     }
     for m in options.meshes {
-        if m.triangles
-            .iter()
-            .flatten()
-            .any(|&i| i as usize >= m.positions.len())
-        {
-            return Err(OutputError::Invalid(format!(
-                "a mesh triangle indexes beyond its {} vertices",
-                m.positions.len()
-            )));
-        }
+        m.validate()?;
     }
     Ok(write_unchecked(w, lines, options))
 }

@@ -9,7 +9,7 @@
 //! dressed hat (front and from above); written: PNG frames every 0.1 s and the last frame as
 //! USD (yarns and head) in `frames/`.
 
-use sim_persistent::experiment::garment::{Dressing, LOOP_WIDTH, hat_chart, head};
+use sim_persistent::experiment::garment::{Dressing, LOOP_WIDTH, hat_chart, head_for_hat};
 use sim_persistent::experiment::positions;
 use sim_persistent::integrator::StepSettings;
 use sim_persistent::output::{Format, FrameWriter, OutputSpec, View};
@@ -41,7 +41,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     // A head whose width is 0.8 of the laid-out hat's radius: the knit contracts onto it.
     let radius = (sectors * width) as f64 * LOOP_WIDTH / std::f64::consts::TAU;
     let (a, b, c) = (0.8 * radius, 0.9 * radius, 0.85 * radius);
-    let profile = head(a, b, c);
+    let profile = head_for_hat(sectors * width);
     let settings = StepSettings {
         rayleigh_alpha: 10.0,
         rayleigh_beta: 0.01,

@@ -197,7 +197,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         "family",
         "parameter",
         "seconds",
-        "rel_error",
+        "error",
         "newton_iterations",
         "dofs",
     ]);
@@ -306,13 +306,14 @@ const GARMENT_DTS: [f64; 3] = [5e-4, 1e-3, 2e-3];
 /// for [`GARMENT_TIME`] with full Newton (Cholesky, the default) and with linearized steps and
 /// IC-CG (the fast configuration) at each of [`GARMENT_DTS`]. Error: RMS over the nodes of
 /// the distance to the reference's node positions at the end, in yarn radii. Rows of family
-/// 4 (full Newton) and 5 (linearized) in the table; chart `…-garment`.
+/// 4 (full Newton) and 5 (linearized) in the table, their `error` column in yarn radii (the
+/// rib families 0–3 hold the relative force error there); chart `…-garment`.
 fn garment_study(
     ctx: &FigureContext,
     data: &mut Table,
     summary: &mut Vec<(String, String)>,
 ) -> anyhow::Result<()> {
-    use sim_persistent::experiment::garment::{Dressing, LOOP_WIDTH, hat_chart, head};
+    use sim_persistent::experiment::garment::{Dressing, hat_chart, head_for_hat};
     use sim_persistent::experiment::positions;
     let (sectors, width, brim, body) = if ctx.quick {
         (8, 4, 2, 4)
@@ -320,34 +321,33 @@ fn garment_study(
         (8, 6, 3, 6)
     };
     let chart = hat_chart(sectors, width, brim, body)?;
-    let radius = (sectors * width) as f64 * LOOP_WIDTH / std::f64::consts::TAU;
-    let profile = head(0.8 * radius, 0.9 * radius, 0.85 * radius);
-    let simulate =
-        |dt: f64, linearized: bool| -> anyhow::Result<(Vec<rod::geometry::V3>, f64, usize, f64)> {
-            let mut settings = StepSettings {
-                dt,
-                rayleigh_alpha: 10.0,
-                rayleigh_beta: 0.01,
-                ..StepSettings::default()
-            };
-            if linearized {
-                settings = settings.linearized_implicit_euler();
-                settings.newton.linear_solver =
-                    solver::LinearSolver::ConjugateGradient(solver::PcgSettings {
-                        relative_tolerance: LINEARIZED_CG_TOL,
-                        max_iterations: 20_000,
-                        preconditioner: solver::Preconditioner::IncompleteCholesky,
-                    });
-            }
-            let mut d = Dressing::new(&chart, &profile, 48, settings)?;
-            let steps = (GARMENT_TIME / dt).round() as usize;
-            let start = std::time::Instant::now();
-            let iterations = d.run(steps)?;
-            let seconds = start.elapsed().as_secs_f64();
-            let r = d.params.radius;
-            Ok((positions(&d.sim), seconds, iterations, d.lowest_gap() / r))
+    let profile = head_for_hat(sectors * width);
+    type Run = (Vec<rod::geometry::V3>, f64, usize, f64, usize);
+    let simulate = |dt: f64, linearized: bool| -> anyhow::Result<Run> {
+        let mut settings = StepSettings {
+            dt,
+            rayleigh_alpha: 10.0,
+            rayleigh_beta: 0.01,
+            ..StepSettings::default()
         };
-    let (reference, reference_seconds, reference_iterations, _) =
+        if linearized {
+            settings = settings.linearized_ic_cg(LINEARIZED_CG_TOL);
+        }
+        let mut d = Dressing::new(&chart, &profile, 48, settings)?;
+        let steps = (GARMENT_TIME / dt).round() as usize;
+        let start = std::time::Instant::now();
+        let iterations = d.run(steps)?;
+        let seconds = start.elapsed().as_secs_f64();
+        let r = d.params.radius;
+        Ok((
+            positions(&d.sim),
+            seconds,
+            iterations,
+            d.lowest_gap() / r,
+            d.sim.dofs().n_dofs(),
+        ))
+    };
+    let (reference, reference_seconds, reference_iterations, _, _) =
         simulate(GARMENT_REFERENCE_DT, false).context("garment reference")?;
     let r = sim_persistent::params::YarnParams::sweater().radius;
     summary.push((
@@ -371,7 +371,7 @@ fn garment_study(
                 }
             );
             match simulate(dt, linearized) {
-                Ok((p, seconds, iterations, gap)) => {
+                Ok((p, seconds, iterations, gap, dofs)) => {
                     let rms = (p
                         .iter()
                         .zip(&reference)
@@ -380,7 +380,14 @@ fn garment_study(
                         / p.len() as f64)
                         .sqrt()
                         / r;
-                    data.push_row([(4 + k) as f64, dt, seconds, rms, iterations as f64, 0.0]);
+                    data.push_row([
+                        (4 + k) as f64,
+                        dt,
+                        seconds,
+                        rms,
+                        iterations as f64,
+                        dofs as f64,
+                    ]);
                     points[k].push((rms.max(1e-12), seconds));
                     summary.push((
                         name,

@@ -12,9 +12,9 @@
 //!   [`mannequin`] (hips, waist, chest, shoulders, neck and head) are profiles of it, written
 //!   as OBJ for scene files by [`write_obj`].
 //! - **Dressing.** [`Dressing::new`] lays the garment out and moves the body up the tube's
-//!   axis as far as it goes while every yarn node and segment midpoint keeps a clearance from it (bisection on
-//!   the body's height against its analytic profile), so the garment starts around the body
-//!   without touching it; then gravity (−y) and the stitch wrapping that ramps in over the
+//!   axis as far as it goes while every yarn node and segment midpoint keeps a clearance from it
+//!   (measured on the body mesh; a scan in 1 mm steps to the first contact, then bisection),
+//!   so the garment starts around the body without touching it; then gravity (−y) and the stitch wrapping that ramps in over the
 //!   first 0.1 s (the knit contracts, [`crate::forces::wrapping`]) pull it onto the body
 //!   (frictionless penalty contact, [`crate::forces::obstacle`], nodes and segment midpoints).
 //!
@@ -28,7 +28,7 @@ use rod::geometry::V3;
 use crate::chart::Chart;
 use crate::forces::ForceSet;
 use crate::forces::obstacle::mesh::{DEFAULT_REACH, TriangleMesh};
-use crate::forces::obstacle::{Obstacle, Shape};
+use crate::forces::obstacle::{Obstacle, Shape, contact_points};
 use crate::integrator::{SimError, Simulator, StepSettings};
 use crate::layout::{Layout, LayoutParams};
 use crate::params::YarnParams;
@@ -56,8 +56,8 @@ fn decrease(sectors: usize, k: usize) -> String {
 }
 
 /// The rounds of a narrowing in `sectors` lines from `sectors × width` loops to
-/// `sectors × end` loops: a decrease every other round while the sectors are wider than
-/// `every_round_below`, then every round.
+/// `sectors × end` loops: a decrease every other round while the sectors are at least
+/// `every_round_below` wide, then every round.
 fn narrowing(sectors: usize, width: usize, end: usize, every_round_below: usize) -> Vec<String> {
     let mut rounds = Vec::new();
     let mut w = width;
@@ -241,6 +241,14 @@ pub fn revolved(profile: &Profile, segments: usize, reach: f64) -> Result<Triang
     TriangleMesh::new(vertices, triangles, reach)
 }
 
+/// The head a hat of `loops` loops around is dressed on in the `garment` figure and its
+/// tests: semi-axes 0.8, 0.9 and 0.85 times the laid-out hat's radius `loops · w / 2π`, so the
+/// knit contracts onto it.
+pub fn head_for_hat(loops: usize) -> Profile {
+    let radius = loops as f64 * LOOP_WIDTH / std::f64::consts::TAU;
+    head(0.8 * radius, 0.9 * radius, 0.85 * radius)
+}
+
 /// A head: an ellipsoid of semi-axes `(a, b, c)` (m) on a neck of radius `0.45 a` and height
 /// `b`, bottom at 0.
 pub fn head(a: f64, b: f64, c: f64) -> Profile {
@@ -335,15 +343,7 @@ impl Dressing {
             .fold(f64::NEG_INFINITY, f64::max);
         let body_top = profile.rings[profile.rings.len() - 1].0;
         // The contact points: the nodes and the segment midpoints.
-        let points: Vec<V3> = layout
-            .positions
-            .iter()
-            .copied()
-            .chain(topology.segments().map(|(y, i)| {
-                let p = &topology.yarns[y].passes;
-                0.5 * (layout.positions[p[i].node] + layout.positions[p[i + 1].node])
-            }))
-            .collect();
+        let points = contact_points(&topology, &layout.positions);
         let body = revolved(profile, segments, DEFAULT_REACH).map_err(anyhow::Error::msg)?;
         // Clear: outside the profile and at least `margin` from the mesh's surface.
         let clear = |offset: f64| {
@@ -419,17 +419,9 @@ impl Dressing {
             .first()
             .expect("the body is the first obstacle")
             .shape;
-        let q = &self.sim.state().q;
-        let t = self.sim.topology();
-        let nodes = (0..t.nodes.len()).map(|n| self.sim.dofs().position(q, n));
-        let mids = t.segments().map(|(y, i)| {
-            let p = &t.yarns[y].passes;
-            0.5 * (self.sim.dofs().position(q, p[i].node)
-                + self.sim.dofs().position(q, p[i + 1].node))
-        });
-        nodes
-            .chain(mids)
-            .map(|x| shape.distance(&x).0 - self.params.radius)
+        contact_points(self.sim.topology(), &super::positions(&self.sim))
+            .iter()
+            .map(|x| shape.distance(x).0 - self.params.radius)
             .fold(f64::INFINITY, f64::min)
     }
 }

@@ -77,12 +77,7 @@ impl SwatchSettings {
         };
         s.newton.gradient_abs_tol = self.newton_abs_tol;
         if let Some(tol) = self.linearized_cg {
-            s = s.linearized_implicit_euler();
-            s.newton.linear_solver = solver::LinearSolver::ConjugateGradient(solver::PcgSettings {
-                relative_tolerance: tol,
-                max_iterations: 20_000,
-                preconditioner: solver::Preconditioner::IncompleteCholesky,
-            });
+            s = s.linearized_ic_cg(tol);
         }
         s
     }

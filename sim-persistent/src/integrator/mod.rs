@@ -126,6 +126,8 @@ struct Parts {
     forces: ForceSet,
     settings: StepSettings,
     obstacles: Vec<Obstacle>,
+    /// Simulated time (s): animated obstacles are rebuilt where they are then.
+    time: f64,
 }
 
 /// A lazily built Newton solver that clones as "not built yet".
@@ -171,6 +173,7 @@ impl Simulator {
             forces,
             settings,
             obstacles: Vec::new(),
+            time: 0.0,
         };
         Self::assemble(parts, true)
     }
@@ -189,6 +192,7 @@ impl Simulator {
             forces,
             settings,
             obstacles,
+            time,
         } = parts;
         let mut elastic = build_terms(&topology, &dofs, &params, &forces, &q_rest);
         elastic.check_dofs().map_err(SimError::Invalid)?;
@@ -259,7 +263,7 @@ impl Simulator {
             q_rest,
             obstacles: Vec::new(),
             solver: SolverCache::default(),
-            time: 0.0,
+            time,
             damping_built: None,
             compression,
         };
@@ -371,6 +375,7 @@ impl Simulator {
             forces: self.forces,
             settings: self.settings.clone(),
             obstacles: self.obstacles.clone(),
+            time: self.time,
         };
         let mut sim = Self::assemble(parts, false)?;
         // Springs that existed keep their anchors; new ones (a head that lost its parallel
@@ -390,7 +395,6 @@ impl Simulator {
                 *v = 0.0;
             }
         }
-        sim.time = self.time;
         *self = sim;
         Ok(())
     }

@@ -127,7 +127,6 @@ use crate::experiment::sphere_drop::StickyContacts;
 use crate::experiment::swatch::SwatchSettings;
 use crate::experiment::uniaxial::{Pull, UniaxialTest};
 use crate::forces::ForceSet;
-use crate::forces::obstacle::Obstacle;
 use crate::integrator::{SimError, Simulator, StepSettings};
 use crate::layout::{Layout, LayoutError, LayoutParams};
 use crate::output::{OutputError, OutputSpec};
@@ -283,8 +282,9 @@ pub struct SceneRun {
 /// The obstacles of a scene with `sticky = true` and the contacts they hold.
 #[derive(Clone, Debug)]
 pub struct StickyObstacles {
-    /// The sticking obstacles (none: nothing is ever held).
-    pub obstacles: Vec<Obstacle>,
+    /// The sticking obstacles as indices into [`Simulator::obstacles`] (none: nothing is ever
+    /// held), so that an animated mesh is tested where it is now.
+    pub obstacles: Vec<usize>,
     /// The yarn radius (m): a node touches an obstacle when its distance from the surface is
     /// at most this.
     pub yarn_radius: f64,
@@ -299,12 +299,17 @@ impl StickyObstacles {
             return Ok(());
         }
         let q = &sim.state().q;
+        let shapes: Vec<&crate::forces::obstacle::Shape> = self
+            .obstacles
+            .iter()
+            .map(|&i| &sim.obstacles()[i].shape)
+            .collect();
         let touching: Vec<usize> = (0..sim.topology().nodes.len())
             .filter(|&n| {
                 let x = sim.dofs().position(q, n);
-                self.obstacles
+                shapes
                     .iter()
-                    .any(|o| o.shape.distance(&x).0 <= self.yarn_radius)
+                    .any(|shape| shape.distance(&x).0 <= self.yarn_radius)
             })
             .collect();
         let time = sim.time();
@@ -549,9 +554,9 @@ impl Scene {
             .collect::<Result<Vec<_>, _>>()?;
         sim.add_obstacles(&obstacles)?;
         let sticky = StickyObstacles {
-            obstacles: (self.obstacle.iter().zip(&obstacles))
-                .filter(|(spec, _)| spec.get_ref().sticky)
-                .map(|(_, o)| o.clone())
+            obstacles: (self.obstacle.iter().enumerate())
+                .filter(|(_, spec)| spec.get_ref().sticky)
+                .map(|(i, _)| i)
                 .collect(),
             yarn_radius: params.radius,
             contacts: StickyContacts::new(sim.topology().nodes.len()),

@@ -34,7 +34,10 @@
 //! 2006, §3.1). With [`NewtonSettings::warm_start_regularization`], a [`NewtonSolver`] also
 //! carries `μ_prev` from the end of one [`NewtonSolver::minimize`] to the first iteration of
 //! the next (the next time step of a simulation through the same indefinite region), instead
-//! of escalating from `μ₀ s` again; `μ = 0` is still tried first. Shifting the diagonal is the textbook "Hessian modification" (Nocedal & Wright
+//! of escalating from `μ₀ s` again; `μ = 0` is still tried first. The accepted shift then
+//! matches a cold start's up to the scale `s` of the new Hessian whenever the needed shift
+//! has not fallen by more than `γ` since the last run; where it has, the warm run takes a
+//! more strongly shifted (shorter) step. Shifting the diagonal is the textbook "Hessian modification" (Nocedal & Wright
 //! Alg. 3.3).
 //!
 //! **Saddle escape.** When the full step is accepted but the unshifted model curves down along

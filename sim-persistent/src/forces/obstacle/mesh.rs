@@ -7,7 +7,8 @@
 //! boxes farther than the best point so far). The sign is that of `(x − c)·n` with the
 //! angle-weighted pseudo-normal `n` of the closest feature (face, edge or vertex; Bærentzen &
 //! Aanæs 2005), which classifies inside and outside exactly for a closed, consistently wound
-//! mesh. Outward normals follow counter-clockwise winding (the OBJ convention); the interior
+//! mesh (vertices repeated at the same position, as along the seams of exported meshes, count
+//! as one). Outward normals follow counter-clockwise winding (the OBJ convention); the interior
 //! of a closed mesh, or the back of an open one, is solid. With `r = x − c` the signed
 //! distance `φ = ±|r|` has, in the three regions of the closest feature,
 //!
@@ -30,7 +31,7 @@
 //! the two frames around `t` and holds the last frame after the end. The simulator moves the
 //! obstacle to the end of every (sub)step before solving it (the contact is with the
 //! obstacle where it will be), rebuilding the tree: `O(n log n)` in the triangles, a small
-//! part of a step for body-sized meshes (measured in `examples/garment.rs`).
+//! part of a step for body-sized meshes (`benches/mesh_obstacle.rs` times the queries).
 
 use nalgebra::Matrix3;
 use rod::geometry::V3;
@@ -168,6 +169,22 @@ impl TriangleMesh {
                     .unwrap_or_else(V3::zeros)
             })
             .collect();
+        // Vertices at the same position (the seams of exported meshes repeat them) are one
+        // vertex for the pseudo-normals, so that a seam is not a border with one-sided normals.
+        let mut first_at: HashMap<[u64; 3], u32> = HashMap::new();
+        let canon: Vec<u32> = vertices
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                *first_at
+                    .entry([v.x, v.y, v.z].map(|c| (c + 0.0).to_bits()))
+                    .or_insert(i as u32)
+            })
+            .collect();
+        let edge_key = |t: &[u32; 3], k: usize| {
+            let (i, j) = (canon[t[k] as usize], canon[t[(k + 1) % 3] as usize]);
+            (i.min(j), i.max(j))
+        };
         // Angle-weighted vertex normals and summed edge normals (only their directions matter).
         let mut vertex_normals = vec![V3::zeros(); vertices.len()];
         let mut edge_sum: HashMap<(u32, u32), V3> = HashMap::new();
@@ -177,22 +194,17 @@ impl TriangleMesh {
                 let (e1, e2) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
                 let angle = e1.angle(&e2);
                 if angle.is_finite() {
-                    vertex_normals[t[k] as usize] += angle * n;
+                    vertex_normals[canon[t[k] as usize] as usize] += angle * n;
                 }
-                let (i, j) = (t[k], t[(k + 1) % 3]);
-                *edge_sum
-                    .entry((i.min(j), i.max(j)))
-                    .or_insert_with(V3::zeros) += n;
+                *edge_sum.entry(edge_key(t, k)).or_insert_with(V3::zeros) += n;
             }
+        }
+        for (i, &c) in canon.iter().enumerate() {
+            vertex_normals[i] = vertex_normals[c as usize];
         }
         let edge_normals = triangles
             .iter()
-            .map(|t| {
-                std::array::from_fn(|k| {
-                    let (i, j) = (t[k], t[(k + 1) % 3]);
-                    edge_sum[&(i.min(j), i.max(j))]
-                })
-            })
+            .map(|t| std::array::from_fn(|k| edge_sum[&edge_key(t, k)]))
             .collect();
         let mut mesh = Self {
             vertices,
@@ -561,6 +573,18 @@ impl MeshAnimation {
         let mut buf = Vec::new();
         for f in &files {
             yarn_output::obj_mesh::read_obj_positions(f, &mut buf).map_err(|e| e.to_string())?;
+            if buf.len() != first.vertices.len() {
+                return Err(format!(
+                    "{}: expected {} vertices (as in the first frame, {}), found {}",
+                    f.display(),
+                    first.vertices.len(),
+                    files[0].display(),
+                    buf.len()
+                ));
+            }
+            if let Some(i) = buf.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+                return Err(format!("{}: vertex {} is not finite", f.display(), i + 1));
+            }
             frames.push(buf.iter().map(|p| V3::from(*p) * scale + offset).collect());
         }
         Self::new(first, frames, fps).map_err(|e| format!("{pattern}: {e}"))

@@ -82,10 +82,20 @@ impl PartialEq for Shape {
     fn eq(&self, other: &Self) -> bool {
         match (self, other) {
             (Shape::Mesh(a), Shape::Mesh(b)) => Arc::ptr_eq(a, b),
-            (Shape::Sphere { .. }, Shape::Sphere { .. })
-            | (Shape::Plane { .. }, Shape::Plane { .. }) => {
-                format!("{self:?}") == format!("{other:?}")
-            }
+            (
+                Shape::Sphere { center, radius },
+                Shape::Sphere {
+                    center: c2,
+                    radius: r2,
+                },
+            ) => center == c2 && radius == r2,
+            (
+                Shape::Plane { point, normal },
+                Shape::Plane {
+                    point: p2,
+                    normal: n2,
+                },
+            ) => point == p2 && normal == n2,
             _ => false,
         }
     }
@@ -332,6 +342,17 @@ impl Stencil<6> for MidpointContact {
         }
         out
     }
+}
+
+/// The points of a yarn that touch obstacles, from the node positions `nodes` (m) of
+/// `topology`: every node, then the midpoint of every segment (in [`Topology::segments`]
+/// order), the points of the node and midpoint stencils of [`stencils`].
+pub fn contact_points(topology: &Topology, nodes: &[V3]) -> Vec<V3> {
+    let midpoints = topology.segments().map(|(y, i)| {
+        let p = &topology.yarns[y].passes;
+        0.5 * (nodes[p[i].node] + nodes[p[i + 1].node])
+    });
+    nodes.iter().copied().chain(midpoints).collect()
 }
 
 /// The contact stencils of `obstacles`: one per node and obstacle with the node's position
