@@ -89,9 +89,7 @@ fn revolved_bodies_are_closed_and_wound_outwards() {
         let mid = 0.5 * (y0 + y1);
         let (d, _, _) = mesh.signed_distance(&V3::new(0.0, mid, 0.0)).unwrap();
         assert!(d < 0.0, "{name}: axis point at {d} m");
-        let (d, _, _) = mesh
-            .signed_distance(&V3::new(0.0, mid, y1 - y0))
-            .unwrap();
+        let (d, _, _) = mesh.signed_distance(&V3::new(0.0, mid, y1 - y0)).unwrap();
         assert!(d > 0.0, "{name}: outside point at {d} m");
     }
     assert!(

@@ -419,7 +419,12 @@ fn warm_started_regularization_skips_the_escalation() {
     }
     // The same shift up to the rounding of (μ/γ)·γ, and so the same step.
     for (c, w) in cold.iter().zip(warm) {
-        assert!((c.2 - w.2).abs() <= 1e-12 * c.2, "shifts {} vs {}", c.2, w.2);
+        assert!(
+            (c.2 - w.2).abs() <= 1e-12 * c.2,
+            "shifts {} vs {}",
+            c.2,
+            w.2
+        );
         for (a, b) in c.0.iter().zip(&w.0) {
             assert!((a - b).abs() <= 1e-12, "steps differ: {a} vs {b}");
         }
