@@ -5,24 +5,23 @@
 //! animated floor that lifts a swatch, and `[[obstacle]] kind = "mesh"` scenes with located
 //! errors.
 
+mod common;
+use common::{SPACING, weave_sim};
 use nalgebra::{SVector, Vector3};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 use rod::Stencil;
 use rod::fd::assert_stencil_derivatives;
+use sim_persistent::forces::TermKind;
 use sim_persistent::forces::obstacle::mesh::{
     Feature, MeshAnimation, TriangleMesh, closest_on_triangle,
 };
 use sim_persistent::forces::obstacle::{
     MidpointContact, ONSET_FRACTION, Obstacle, ObstacleContact, Shape,
 };
-use sim_persistent::forces::{ForceSet, TermKind};
-use sim_persistent::integrator::{Simulator, StepSettings};
-use sim_persistent::layout::{Layout, LayoutParams};
+use sim_persistent::integrator::Simulator;
 use sim_persistent::params::YarnParams;
 use sim_persistent::scene::{Scene, SceneError};
-use sim_persistent::topology::Topology;
-use sim_persistent::weave::WeavePattern;
 
 type V3 = Vector3<f64>;
 
@@ -231,21 +230,6 @@ fn mesh_contact_derivatives_in_every_region() {
     let q = V3::new(0.0, 0.0, h - 4.5e-3);
     assert!(shape.distance(&q).0.is_infinite() && c.eval(&q).energy == 0.0);
     assert_eq!(checked, 17);
-}
-
-const SPACING: f64 = 3e-3;
-
-fn weave_sim(n: usize) -> Simulator {
-    let topo = Topology::weave(WeavePattern::Plain, n, n).unwrap();
-    let mut params = YarnParams::sweater();
-    params.gravity = V3::new(0.0, 0.0, -9.81);
-    let layout = Layout::new(&topo, &LayoutParams::new(SPACING, params.radius)).unwrap();
-    let settings = StepSettings {
-        rayleigh_alpha: 10.0,
-        rayleigh_beta: 0.01,
-        ..StepSettings::default()
-    };
-    Simulator::new(topo, &layout, params, ForceSet::default(), settings).unwrap()
 }
 
 fn node_positions(sim: &Simulator) -> Vec<V3> {

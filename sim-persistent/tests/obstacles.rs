@@ -4,20 +4,19 @@
 //! sphere and onto a plane, and `[[obstacle]]` / `[crossing_shear]` scene tables with
 //! located errors.
 
+mod common;
+use common::{SPACING, weave_sim};
 use nalgebra::{SVector, Vector3};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 use rod::Stencil;
 use rod::fd::{FdOptions, assert_stencil_derivatives, check_gradient};
+use sim_persistent::forces::TermKind;
 use sim_persistent::forces::crossing_shear::CrossingShear;
 use sim_persistent::forces::obstacle::{ONSET_FRACTION, Obstacle, ObstacleContact, Shape};
-use sim_persistent::forces::{ForceSet, TermKind};
-use sim_persistent::integrator::{Simulator, StepSettings};
-use sim_persistent::layout::{Layout, LayoutParams};
+use sim_persistent::integrator::Simulator;
 use sim_persistent::params::YarnParams;
 use sim_persistent::scene::{Scene, SceneError};
-use sim_persistent::topology::Topology;
-use sim_persistent::weave::WeavePattern;
 use std::path::Path;
 
 /// Fixed seed, no failure files written into the source tree.
@@ -217,23 +216,6 @@ fn obstacles_are_validated() {
     );
     let p = YarnParams::sweater();
     assert!((o.stiffness(&p) - p.stretch_stiffness() / p.radius).abs() < 1e-9);
-}
-
-const SPACING: f64 = 3e-3;
-
-/// A `n × n` plain weave of the sweater yarn in the xy plane (z = 0) with gravity along −z
-/// and Table 1 damping (α = 10, β = 0.01).
-fn weave_sim(n: usize) -> Simulator {
-    let topo = Topology::weave(WeavePattern::Plain, n, n).unwrap();
-    let mut params = YarnParams::sweater();
-    params.gravity = Vector3::new(0.0, 0.0, -9.81);
-    let layout = Layout::new(&topo, &LayoutParams::new(SPACING, params.radius)).unwrap();
-    let settings = StepSettings {
-        rayleigh_alpha: 10.0,
-        rayleigh_beta: 0.01,
-        ..StepSettings::default()
-    };
-    Simulator::new(topo, &layout, params, ForceSet::default(), settings).unwrap()
 }
 
 fn obstacle_terms(sim: &Simulator) -> usize {

@@ -76,6 +76,15 @@ fn rib(loops: usize) -> String {
     vec!["K2 P2"; loops / 4].join(" ")
 }
 
+/// The straight part of a garment knitted in the round: a cast-on round of `loops`, `rib`
+/// rib rounds and `plain` plain rounds.
+fn tube_rows(loops: usize, rib_rounds: usize, plain_rounds: usize) -> Vec<String> {
+    let mut rows = vec![plain(loops)];
+    rows.extend(std::iter::repeat_n(rib(loops), rib_rounds));
+    rows.extend(std::iter::repeat_n(plain(loops), plain_rounds));
+    rows
+}
+
 /// A hat (module documentation): `sectors × sector_width` loops around (a multiple of 4),
 /// `brim` rib rounds, `body` plain rounds and a crown down to `sectors` loops. Errors if the
 /// sizes do not make a hat.
@@ -90,9 +99,7 @@ pub fn hat_chart(
         sectors >= 3 && sector_width >= 2 && loops.is_multiple_of(4),
         "a hat needs ≥ 3 sectors of ≥ 2 loops and a multiple of 4 loops around, got {sectors} × {sector_width}"
     );
-    let mut rows: Vec<String> = vec![plain(loops)];
-    rows.extend(std::iter::repeat_n(rib(loops), brim));
-    rows.extend(std::iter::repeat_n(plain(loops), body));
+    let mut rows = tube_rows(loops, brim, body);
     rows.extend(narrowing(sectors, sector_width, 1, 5));
     Ok(Chart::parse(&rows.join("\n"))?)
 }
@@ -113,9 +120,7 @@ pub fn sweater_chart(
         "a sweater needs ≥ 3 sectors, a neck narrower than the body and a multiple of 4 loops \
          around, got {sectors} × {sector_width} → {neck_width}"
     );
-    let mut rows: Vec<String> = vec![plain(loops)];
-    rows.extend(std::iter::repeat_n(rib(loops), hem));
-    rows.extend(std::iter::repeat_n(plain(loops), body));
+    let mut rows = tube_rows(loops, hem, body);
     rows.extend(narrowing(sectors, sector_width, neck_width, usize::MAX));
     Ok(Chart::parse(&rows.join("\n"))?)
 }

@@ -518,6 +518,23 @@ pub fn closest_on_triangle(p: &V3, a: &V3, b: &V3, c: &V3) -> (V3, Feature) {
     (a + ab * v + ac * w, Feature::Face)
 }
 
+/// Checks a frame's vertices: `expected` of them (as in the first frame), all finite.
+fn check_frame(expected: usize, vertices: &[V3]) -> Result<(), String> {
+    if vertices.len() != expected {
+        return Err(format!(
+            "expected {expected} vertices (as in the first frame), found {}",
+            vertices.len()
+        ));
+    }
+    match vertices
+        .iter()
+        .position(|p| !p.iter().all(|c| c.is_finite()))
+    {
+        Some(i) => Err(format!("vertex {} is not finite", i + 1)),
+        None => Ok(()),
+    }
+}
+
 /// An animated mesh: frames of the same triangles at a fixed frame rate (module
 /// documentation).
 #[derive(Clone, Debug)]
@@ -539,16 +556,7 @@ impl MeshAnimation {
             return Err("a mesh animation needs at least one frame".into());
         }
         for (f, v) in frames.iter().enumerate() {
-            if v.len() != first.vertices.len() {
-                return Err(format!(
-                    "frame {f}: expected {} vertices (as in the first frame), found {}",
-                    first.vertices.len(),
-                    v.len()
-                ));
-            }
-            if let Some(i) = v.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-                return Err(format!("frame {f}: vertex {} is not finite", i + 1));
-            }
+            check_frame(first.vertices.len(), v).map_err(|e| format!("frame {f}: {e}"))?;
         }
         Ok(Self {
             first,
@@ -573,19 +581,15 @@ impl MeshAnimation {
         let mut buf = Vec::new();
         for f in &files {
             yarn_output::obj_mesh::read_obj_positions(f, &mut buf).map_err(|e| e.to_string())?;
-            if buf.len() != first.vertices.len() {
-                return Err(format!(
-                    "{}: expected {} vertices (as in the first frame, {}), found {}",
+            let frame: Vec<V3> = buf.iter().map(|p| V3::from(*p) * scale + offset).collect();
+            check_frame(first.vertices.len(), &frame).map_err(|e| {
+                format!(
+                    "{}: {e} (the first frame is {})",
                     f.display(),
-                    first.vertices.len(),
-                    files[0].display(),
-                    buf.len()
-                ));
-            }
-            if let Some(i) = buf.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-                return Err(format!("{}: vertex {} is not finite", f.display(), i + 1));
-            }
-            frames.push(buf.iter().map(|p| V3::from(*p) * scale + offset).collect());
+                    files[0].display()
+                )
+            })?;
+            frames.push(frame);
         }
         Self::new(first, frames, fps).map_err(|e| format!("{pattern}: {e}"))
     }
