@@ -20,8 +20,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::ShellError;
 use crate::fit::{
-    ErrorReport, FitConfig, FitResult, Simulator, Target, VirtualTest, fit, initial_guess_for,
-    targets,
+    ErrorReport, FitConfig, FitResult, Simulator, Target, VirtualTest, fit,
+    initial_guess_for_config, targets,
 };
 use crate::material::{InPlaneParams, Model};
 use crate::measurements::{
@@ -110,6 +110,9 @@ pub struct FabricFitOptions {
     pub test: VirtualTest,
     /// Swatch of the virtual tests.
     pub swatch: SwatchConfig,
+    /// Swatches of single directions in place of `swatch`
+    /// ([`FitConfig::direction_swatches`]). Default none.
+    pub direction_swatches: BTreeMap<Direction, SwatchConfig>,
     /// Maximum LM iterations.
     pub max_iterations: usize,
 }
@@ -120,6 +123,7 @@ impl Default for FabricFitOptions {
             targets: 6,
             test: VirtualTest::Swatch,
             swatch: SwatchConfig::default(),
+            direction_swatches: BTreeMap::new(),
             max_iterations: 200,
         }
     }
@@ -165,13 +169,14 @@ pub fn fit_config(
     let mut cfg = FitConfig::for_model(model);
     cfg.test = opts.test;
     cfg.swatch = opts.swatch.clone();
+    cfg.direction_swatches = opts.direction_swatches.clone();
     cfg.max_iterations = opts.max_iterations;
     cfg.fixed[3] = !measurements.iter().any(|m| m.direction == Direction::Bias);
     cfg
 }
 
 /// Fits `model` to `opts.targets` targets per direction of `measurements` with
-/// [`fit_config`], from [`initial_guess_for`]. A clamped-swatch fit starts from the
+/// [`fit_config`], from [`initial_guess_for_config`]. A clamped-swatch fit starts from the
 /// homogeneous uniaxial fit of the same targets (milliseconds; its optimum is close, so the
 /// FEM fit needs fewer iterations); the reported time includes that pre-fit.
 fn fit_measurements(
@@ -181,7 +186,7 @@ fn fit_measurements(
 ) -> Result<FitResult, ShellError> {
     let cfg = fit_config(model, measurements, opts);
     let tg = targets(measurements, opts.targets);
-    let mut initial = initial_guess_for(model, measurements, cfg.swatch.width);
+    let mut initial = initial_guess_for_config(model, measurements, &cfg);
     let mut pre_seconds = 0.0;
     if cfg.test == VirtualTest::Swatch {
         let homogeneous = FitConfig {
@@ -207,7 +212,13 @@ fn evaluate(
     points: &[Target],
     opts: &FabricFitOptions,
 ) -> Result<(Vec<Target>, ErrorReport), ShellError> {
-    let mut sim = Simulator::new(opts.test, &opts.swatch, model, points)?;
+    let mut sim = Simulator::with_swatches(
+        opts.test,
+        &opts.swatch,
+        &opts.direction_swatches,
+        model,
+        points,
+    )?;
     let values = sim.simulate(params, points)?;
     let simulated: Vec<Target> = points
         .iter()

@@ -42,6 +42,7 @@ use crate::curves::uniaxial_sensitivity;
 use crate::material::{InPlaneParams, Material, Model};
 use crate::measurements::Measurement;
 use crate::swatch::{StretchTest, SwatchConfig};
+use std::collections::BTreeMap;
 
 /// One fit target: a stretch and the measured force and compression there.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -100,6 +101,14 @@ pub const MAX_RATE: f64 = 50.0;
 pub const STIFFENING_MIN_KN2: f64 = 0.1;
 
 impl FitConfig {
+    /// The swatch of `direction`'s tests: its own ([`FitConfig::direction_swatches`]) or the
+    /// common one.
+    pub fn swatch_for(&self, direction: Direction) -> &SwatchConfig {
+        self.direction_swatches
+            .get(&direction)
+            .unwrap_or(&self.swatch)
+    }
+
     /// The default settings for `model` (bounds adapted to it).
     pub fn for_model(model: Model) -> Self {
         let mut cfg = Self {
@@ -154,6 +163,10 @@ pub struct FitConfig {
     /// Swatch of the virtual tests (for [`VirtualTest::Uniaxial`] only its width, which
     /// turns stress into force).
     pub swatch: SwatchConfig,
+    /// Swatches of single directions, in place of [`FitConfig::swatch`] for those: a fabric
+    /// whose strips were cut to different sizes per direction (length along the pull, width
+    /// across it). Default none.
+    pub direction_swatches: BTreeMap<Direction, SwatchConfig>,
     /// Material model fitted. Default [`Model::Augmented`].
     pub model: Model,
     /// Lower bounds (order of [`InPlaneParams::to_array`]). Default
@@ -175,6 +188,7 @@ impl Default for FitConfig {
         Self {
             test: VirtualTest::Swatch,
             swatch: SwatchConfig::default(),
+            direction_swatches: BTreeMap::new(),
             weighting: Weighting::DirectionMean,
             fixed: [false; InPlaneParams::LEN],
             model: Model::Augmented,
@@ -341,22 +355,38 @@ pub struct Simulator {
     n_targets: usize,
     model: Model,
     test: VirtualTest,
-    /// Swatch width `w̄` (m).
-    width: f64,
+    /// Swatch width `w̄` (m) per direction ([`Direction::ALL`] order).
+    widths: [f64; 3],
 }
 
 impl Simulator {
-    /// One `test` per direction present in `targets`.
+    /// One `test` per direction present in `targets`, all on the swatch `cfg`.
     pub fn new(
         test: VirtualTest,
         cfg: &SwatchConfig,
         model: Model,
         targets: &[Target],
     ) -> Result<Self, ShellError> {
-        if !(cfg.width > 0.0 && cfg.width.is_finite()) {
+        Self::with_swatches(test, cfg, &BTreeMap::new(), model, targets)
+    }
+
+    /// [`Simulator::new`] with the swatches of single directions in `direction_swatches`
+    /// ([`FitConfig::direction_swatches`]).
+    pub fn with_swatches(
+        test: VirtualTest,
+        swatch: &SwatchConfig,
+        direction_swatches: &BTreeMap<Direction, SwatchConfig>,
+        model: Model,
+        targets: &[Target],
+    ) -> Result<Self, ShellError> {
+        let swatch_for = |d: Direction| direction_swatches.get(&d).unwrap_or(swatch);
+        let widths = Direction::ALL.map(|d| swatch_for(d).width);
+        if let Some((d, w)) =
+            (Direction::ALL.iter().zip(widths)).find(|(_, w)| !(*w > 0.0 && w.is_finite()))
+        {
             return Err(ShellError::InvalidInput(format!(
-                "swatch width must be positive, got {}",
-                cfg.width
+                "swatch width must be positive, got {w} ({} swatch)",
+                d.name()
             )));
         }
         let mut dirs = Vec::new();
@@ -376,7 +406,7 @@ impl Simulator {
                 model,
             };
             dirs.push(DirectionSim {
-                test: StretchTest::new(cfg, material, d.angle())?,
+                test: StretchTest::new(swatch_for(d), material, d.angle())?,
                 states: vec![None; idx.len()],
                 idx,
             });
@@ -386,8 +416,14 @@ impl Simulator {
             n_targets: targets.len(),
             model,
             test,
-            width: cfg.width,
+            widths,
         })
+    }
+
+    /// The swatch width of `direction`'s tests (m).
+    fn width(&self, direction: Direction) -> f64 {
+        let i = Direction::ALL.iter().position(|&d| d == direction);
+        self.widths[i.expect("Direction::ALL holds every direction")]
     }
 
     /// [`VirtualTest::Uniaxial`]: every target from its own material point.
@@ -405,9 +441,10 @@ impl Simulator {
         let mut jac = Vec::with_capacity(if with_jac { targets.len() } else { 0 });
         for t in targets {
             let u = uniaxial_sensitivity(&material, t.s, t.direction.angle())?;
-            sim.push((self.width * u.point.sigma, u.point.c));
+            let w = self.width(t.direction);
+            sim.push((w * u.point.sigma, u.point.c));
             if with_jac {
-                jac.push((u.sigma.map(|d| self.width * d), u.compression));
+                jac.push((u.sigma.map(|d| w * d), u.compression));
             }
         }
         Ok(Evaluation {
@@ -513,11 +550,16 @@ fn weights(targets: &[Target], weighting: Weighting) -> Vec<(f64, f64)> {
 /// of the weft / warp force (`σ ≈ k E (1+s)` with `σ = f/w̄`), `kss` from the bias if present,
 /// small coupling and area terms. Missing directions borrow from the others.
 pub fn initial_guess(measurements: &[Measurement], swatch_width: f64) -> InPlaneParams {
+    guess(measurements, &|_| swatch_width)
+}
+
+/// [`initial_guess`] with a swatch width per direction.
+fn guess(measurements: &[Measurement], swatch_width: &dyn Fn(Direction) -> f64) -> InPlaneParams {
     let secant = |d: Direction| {
         measurements.iter().find(|m| m.direction == d).map(|m| {
             let p = m.points.last().expect("non-empty");
             let e = 0.5 * ((1.0 + p.s).powi(2) - 1.0);
-            (p.force / swatch_width / (e * (1.0 + p.s))).max(1.0)
+            (p.force / swatch_width(d) / (e * (1.0 + p.s))).max(1.0)
         })
     };
     let (kx, ky, kb) = (
@@ -552,7 +594,24 @@ pub fn initial_guess_for(
     measurements: &[Measurement],
     swatch_width: f64,
 ) -> InPlaneParams {
-    let mut p = initial_guess(measurements, swatch_width);
+    guess_for(model, measurements, &|_| swatch_width)
+}
+
+/// [`initial_guess_for`] on the swatches of `cfg` ([`FitConfig::swatch_for`]).
+pub fn initial_guess_for_config(
+    model: Model,
+    measurements: &[Measurement],
+    cfg: &FitConfig,
+) -> InPlaneParams {
+    guess_for(model, measurements, &|d| cfg.swatch_for(d).width)
+}
+
+fn guess_for(
+    model: Model,
+    measurements: &[Measurement],
+    swatch_width: &dyn Fn(Direction) -> f64,
+) -> InPlaneParams {
+    let mut p = guess(measurements, swatch_width);
     if model != Model::Stiffening {
         return p;
     }
@@ -563,7 +622,7 @@ pub fn initial_guess_for(
         let stress = |s: f64| {
             let q = m.interpolate(s);
             (
-                q.force / (swatch_width * (1.0 + s)),
+                q.force / (swatch_width(d) * (1.0 + s)),
                 0.5 * ((1.0 + s).powi(2) - 1.0),
             )
         };
@@ -673,7 +732,13 @@ pub fn fit(
             "non-finite fit target {t:?}"
         )));
     }
-    let sim = std::cell::RefCell::new(Simulator::new(cfg.test, &cfg.swatch, cfg.model, targets)?);
+    let sim = std::cell::RefCell::new(Simulator::with_swatches(
+        cfg.test,
+        &cfg.swatch,
+        &cfg.direction_swatches,
+        cfg.model,
+        targets,
+    )?);
     let w = weights(targets, cfg.weighting);
     let m = 2 * targets.len();
     let residuals = |e: &[(f64, f64)]| -> DVector<f64> {

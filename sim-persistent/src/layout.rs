@@ -17,6 +17,11 @@
 //! point. Knitted in the round, the same layout is wrapped round a tube whose circumference
 //! is `w` times the loops of each row (front outwards, rows along +y).
 //!
+//! **Yarn per loop.** How much yarn a loop takes (the stitch length) follows from `w`, `h`,
+//! the contact length and `δ`; [`LayoutParams::with_loop_length`] solves for the `δ` that
+//! gives a required length, for example a relaxed periodic tile's (seed 000's `δ = R/4`
+//! holds two thirds of a procedural tile's).
+//!
 //! **Weaves.** Crossing `(i, j)` sits at `(i w, j w, 0)`: `w` is the yarn spacing.
 //!
 //! **Sliding coordinates** start as the arc length of the polyline from the yarn's first node
@@ -81,6 +86,65 @@ impl LayoutParams {
     }
 }
 
+impl LayoutParams {
+    /// These parameters with the out-of-plane offset `δ` at which the layout of the knit
+    /// `topology` holds `loop_length` metres of yarn per loop ([`Layout::yarn_per_loop`]): how
+    /// much yarn a stitch takes is a property of the fabric (its *stitch length*, which
+    /// knitters measure, and which a relaxed periodic tile has), while this layout's
+    /// straight segments between the stitch-contact nodes hold whatever the loop width, row
+    /// height and offset give them. The yarn per loop grows monotonically with `δ` (every
+    /// segment's out-of-plane extent is a fixed multiple of it), so `δ` is found by bisection
+    /// on `(0, w]`, to a relative 1e-12.
+    ///
+    /// Errors: a weave (its crossings lie in one plane), a length that is not finite and
+    /// positive, or one the layout cannot reach: below the flat layout's (`δ → 0`; a smaller
+    /// loop width or row height is needed) or above the layout's at `δ = w`.
+    pub fn with_loop_length(
+        mut self,
+        topology: &Topology,
+        loop_length: f64,
+    ) -> Result<Self, LayoutError> {
+        self.validate()?;
+        if !matches!(topology.kind, FabricKind::Knit(_)) {
+            return Err(LayoutError::InvalidParams(
+                "a loop length needs a knit: a weave's layout lies in one plane".into(),
+            ));
+        }
+        if !(loop_length.is_finite() && loop_length > 0.0) {
+            return Err(LayoutError::InvalidParams(format!(
+                "the loop length must be finite and > 0, found {loop_length} m"
+            )));
+        }
+        let length_at = |delta: f64| -> Result<f64, LayoutError> {
+            let params = Self {
+                out_of_plane: delta,
+                ..self
+            };
+            Layout::new(topology, &params)?.yarn_per_loop(topology)
+        };
+        let (mut lo, mut hi) = (1e-9 * self.loop_width, self.loop_width);
+        let (shortest, longest) = (length_at(lo)?, length_at(hi)?);
+        if loop_length < shortest || loop_length > longest {
+            return Err(LayoutError::InvalidParams(format!(
+                "a loop length of {loop_length} m is out of this layout's reach: it holds \
+                 {shortest} m per loop flat and {longest} m with an out-of-plane offset of one \
+                 loop width ({} m); change the loop width or the row height",
+                self.loop_width
+            )));
+        }
+        while hi - lo > 1e-12 * hi {
+            let mid = 0.5 * (lo + hi);
+            if length_at(mid)? < loop_length {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        self.out_of_plane = 0.5 * (lo + hi);
+        Ok(self)
+    }
+}
+
 /// An invalid layout request.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum LayoutError {
@@ -137,6 +201,26 @@ impl Layout {
             }
         }
         Ok(Self { positions, sliding })
+    }
+
+    /// The mean yarn length per loop of a knit (m): the summed length of its yarns (their
+    /// sliding-coordinate spans) over the loops its rows make. The yarn at the swatch's edges
+    /// (where a row yarn ends or turns) is counted with the loops.
+    pub fn yarn_per_loop(&self, topology: &Topology) -> Result<f64, LayoutError> {
+        let loops: usize = match &topology.knit {
+            Some(map) => map.loops_per_row.iter().sum(),
+            None => 0,
+        };
+        if loops == 0 {
+            return Err(LayoutError::InvalidParams(
+                "yarn per loop needs a knit that makes loops".into(),
+            ));
+        }
+        let u = |p: &crate::topology::Pass| self.sliding[p.node][p.slot];
+        let yarn: f64 = (topology.yarns.iter())
+            .filter_map(|y| Some(u(y.passes.last()?) - u(y.passes.first()?)))
+            .sum();
+        Ok(yarn / loops as f64)
     }
 }
 

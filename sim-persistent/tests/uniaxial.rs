@@ -184,8 +184,11 @@ fn scenes_express_the_swatch_test() {
     assert_eq!(test.pull, Pull::Warp);
     assert_eq!((test.max_stretch, test.steps), (0.1, 2));
     assert!((test.settings.settle_time - 0.02).abs() < 1e-15);
+    assert!(!test.zero_force_start);
     let run = test.run().unwrap();
     assert_eq!(run.samples.len(), 3);
+    let zero = Scene::parse(&text("zero_force_start = true\n"), Path::new("test.toml")).unwrap();
+    assert!(zero.uniaxial_test().unwrap().unwrap().zero_force_start);
     let clamped = Scene::parse(
         &text("[[clamp]]\nedge = \"left\"\n"),
         Path::new("test.toml"),
@@ -233,4 +236,37 @@ fn scenes_express_the_swatch_test() {
     )
     .unwrap();
     assert!(plain.uniaxial_test().unwrap().is_none());
+}
+
+/// The zero-force start moves the clamp against the settled swatch's force, out where the
+/// clamped swatch pushes and in where it pulls, and removes that force to 2 % (the single
+/// move back to the interpolated zero leaves a little). Stockinette 6 × 6, warp and weft.
+#[test]
+fn the_zero_force_start_removes_the_preload() {
+    for pull in [Pull::Warp, Pull::Weft] {
+        let chart = Chart::stockinette(6, 6).unwrap();
+        let mut test = quick(Fabric::Knit(chart, Construction::FlatPerRow), pull);
+        let layout_start = test.run().unwrap();
+        test.zero_force_start = true;
+        let zero_start = test.run().unwrap();
+        let (s0, z0) = (layout_start.samples[0], zero_start.samples[0]);
+        println!(
+            "{}: layout start L₀ {:.3} mm, σ₀ {:.4} N/m; zero-force start L₀ {:.3} mm, σ₀ {:.4} N/m",
+            pull.name(),
+            layout_start.length * 1e3,
+            s0.stress,
+            zero_start.length * 1e3,
+            z0.stress
+        );
+        // Against the preload: a swatch that pushes (σ₀ < 0) is lengthened.
+        assert_eq!(
+            (zero_start.length - layout_start.length).signum(),
+            -s0.stress.signum(),
+            "{pull:?}"
+        );
+        assert!(
+            z0.stress.abs() < 0.02 * s0.stress.abs(),
+            "{pull:?}: {z0:?} {s0:?}"
+        );
+    }
 }

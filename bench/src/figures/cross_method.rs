@@ -2,17 +2,20 @@
 //! through every method, for stockinette, garter, 1×1 rib and plain weave:
 //!
 //! 1. **persistent swatch** (`sim-persistent`, seed 000): a finite swatch, clamped flat over
-//!    two opposite edges, settled between the clamps and stretched quasi-statically
-//!    ([`sim_persistent::experiment::uniaxial`], the virtual test of seed 002 §4.3);
+//!    two opposite edges, settled between the clamps, moved to the clamp distance of zero
+//!    force and stretched quasi-statically ([`sim_persistent::experiment::uniaxial`], the
+//!    virtual test of seed 002 §4.3), in two layouts ([`PersistentLayout`]): seed 000's
+//!    (the tile's loop width and row height, nodes `R/4` out of plane) and the tile's loop
+//!    (the same, with the out-of-plane offset that gives the layout the tile's yarn per
+//!    loop);
 //! 2. **periodic tile** (`sim-periodic`, seed 002 §6): the homogenized uniaxial curve with zero
 //!    orthogonal stress, on the procedural tile of the same stitch relaxed to a stress-free
 //!    rest state;
 //! 3. **shell** (`shell-fem`, seed 002 §5): the stiffening shell fitted to the persistent
-//!    swatch's curves through the clamped-swatch test ("shell, clamped": how well it
-//!    reproduces them), and its homogeneous uniaxial curve ("shell, uniform": the targets a
-//!    yarn fit would get). shell-fem's fit uses one swatch for every direction: the weft
-//!    run's length and width (pull along the length), so the warp test's clamped swatch has
-//!    the weft swatch's aspect, not the persistent warp swatch's (a known limitation).
+//!    swatch's curves (seed 000 layout) through the clamped-swatch test ("shell, clamped": how
+//!    well it reproduces them), and its homogeneous uniaxial curve ("shell, uniform": the
+//!    targets a yarn fit would get). Each direction's shell swatch has its persistent run's
+//!    length and width ([`shell_fem::fit::FitConfig::direction_swatches`]).
 //!
 //! The two homogeneous curves (periodic tile, uniform shell) are the like-for-like comparison;
 //! the clamped ones differ from them by the finite swatch's boundary effects.
@@ -20,30 +23,43 @@
 //! **Same yarn, different models.** The persistent swatch has friction (μ = 0.3; the periodic
 //! tile has none: its yarns slide freely) and seed 000's persistent stitch energies (stitch
 //! length, wrapping, loop contact) in place of the periodic tile's barrier contact; its
-//! layout has the procedural tile's loop width and row height, its rest lengths are that
-//! layout's and its bending rest state is straight (Eq. 1), while the tile's rest shape is
-//! relaxed to zero stress. Without friction the persistent static solve has no stiffness
-//! against sliding (a 4 × 4 stockinette diverges at once, measured), so the friction term
-//! stays on: within a load step the sliding coordinates stick to their anchors through the
-//! friction springs, and between steps they slip where the spring force exceeds `μλ`.
+//! bending rest state is straight (Eq. 1), while the tile's rest shape is relaxed to zero
+//! stress, so the clamped swatch starts pre-stressed: the zero-force start removes that
+//! preload, as the tile starts stress-free. Without friction the persistent static solve has
+//! no stiffness against sliding (a 4 × 4 stockinette diverges at once, measured), so the
+//! friction term stays on: within a load step the sliding coordinates stick to their anchors
+//! through the friction springs, and between steps they slip where the spring force exceeds
+//! `μλ`.
 //!
-//! **Where the methods differ, and why** (full run; the yarn-length and straight-weave causes
-//! are tested in `tests/tests/cross_method.rs` and `sim-persistent/tests/uniaxial.rs`, the
-//! friction / stitch-length / wrapping share was measured once):
+//! **Where the methods differ, and why** (full run; the causes are tested in
+//! `tests/tests/cross_method.rs` and `sim-persistent/tests/uniaxial.rs`, the friction /
+//! stitch-length / wrapping share was measured once):
 //!
-//! - *Knits: at 30 % stretch the persistent swatch is 4× (stockinette weft) to 1000× (1×1 rib
-//!   warp) stiffer* than the periodic tile. Its layout holds 0.6–0.7× the tile's yarn per stitch (key number "yarn per course
-//!   width"): straight segments between the stitch-contact nodes against the tile's relaxed,
-//!   curved loops. Its courses run taut early, and the stress then follows the yarn's stiff
-//!   stretch regime. Friction, the stitch-length energy and wrapping change it by 14 % at
-//!   most (measured once).
-//! - *Plain weave: the persistent swatch is 65× stiffer at 10 %* and does not contract: its
+//! - *Knits in seed 000's layout: at 30 % stretch the persistent swatch is 3× (1×1 rib weft)
+//!   to 1200× (1×1 rib warp) stiffer* than the periodic tile (stockinette weft 4×). The layout holds
+//!   0.65–0.68× the tile's yarn per loop (key number "yarn per loop"): straight segments
+//!   between stitch-contact nodes a quarter radius out of plane, against the tile's loops
+//!   curving round each other. Its courses run taut early, and the stress then follows the
+//!   yarn's stiff stretch regime. Friction, the stitch-length energy and wrapping change it
+//!   by 14 % at most (measured once).
+//! - *The same knits with the tile's yarn per loop* (offset 1.33–1.73 R) *are softer than the
+//!   tile*: stockinette weft 47× at 30 %, rib weft 78×. So the yarn length was the cause of
+//!   the stiffness (tested: 600× softer at 20 % on the quick swatch), and what remains is the
+//!   model: the persistent swatch stores the extra yarn in its out-of-plane zigzag, which
+//!   the pull flattens against node bending and friction alone, while the tile's loops press
+//!   on each other through their contacts. Warp pulls disagree both ways (garter 7× softer,
+//!   rib 640× stiffer at 30 %: the rib's zigzag unfolds before the clamp force vanishes, at
+//!   61.1 mm against 41.6 mm in seed 000's layout).
+//!   Two of the six tile's-loop runs cannot start: the static solve fails while the clamp
+//!   moves to zero force (key numbers "has no curve").
+//! - *Plain weave: the persistent swatch is 66× stiffer at 10 %* and does not contract: its
 //!   yarns run straight between persistent crossings, so `σ = ψ'(s)/d` from the first strain
-//!   (tested to 0.1 %), while the tile's crimp interchange takes the first 20 % of stretch.
+//!   (tested to 0.1 %), while the tile's crimp interchange takes the first 20 % of stretch. A
+//!   weave's crossings are single nodes, so no layout can give it the tile's crimp.
 //! - *Finite swatch against homogeneous curves*: the fitted shell's clamped and uniform
-//!   curves differ by 5–26 % in stress at 30 % on the knits (the clamps stop the contraction
-//!   near them; not at all on the weave, which does not contract); this is the size of the
-//!   boundary effect on the persistent swatch, which the uniform curve removes.
+//!   curves differ by 10–80 % in stress at 30 % on the knits (the clamps stop the
+//!   contraction near them), not at all on the weave, which does not contract; this is the size of the boundary effect on the
+//!   persistent swatch, which the uniform curve removes.
 
 use std::collections::BTreeMap;
 
@@ -122,42 +138,99 @@ fn sizes(quick: bool) -> (usize, f64, usize) {
     if quick { (4, 0.2, 4) } else { (10, 0.5, 20) }
 }
 
-/// The persistent swatch of `pattern` (`n × n` stitches or yarns) and its layout: the
-/// procedural tile's loop width and row height (yarn spacing of a weave).
-pub fn persistent_fabric(pattern: Pattern, n: usize) -> anyhow::Result<(Fabric, [f64; 2])> {
-    let spacing = pattern.default_params(yarn().radius).spacing;
-    let fabric = match pattern {
-        Pattern::Stockinette => Fabric::Knit(Chart::stockinette(n, n)?, Construction::FlatPerRow),
-        Pattern::Garter => Fabric::Knit(Chart::garter(n, n)?, Construction::FlatPerRow),
-        Pattern::Rib1x1 => Fabric::Knit(Chart::rib(n, n, 1, 1)?, Construction::FlatPerRow),
-        Pattern::PlainWeave => Fabric::Weave {
-            pattern: WeavePattern::Plain,
-            warps: n,
-            wefts: n,
-        },
-        other => anyhow::bail!("no persistent swatch for {}", other.name()),
-    };
-    Ok((fabric, spacing))
+/// The two persistent layouts compared.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PersistentLayout {
+    /// The tile's loop: the relaxed tile's loop width, row height and yarn per loop (the
+    /// out-of-plane offset is solved for, [`LayoutParams::with_loop_length`]): the same fabric
+    /// as the tile. Weaves: the tile's yarn spacing (their layout is flat, it has no offset to
+    /// solve for).
+    TileLoop,
+    /// Seed 000's layout: the tile's loop width and row height, out-of-plane offset `R/4`
+    /// ([`LayoutParams::new`]), which holds 0.6–0.7× the tile's yarn per loop.
+    Seed000,
 }
 
-/// The persistent uniaxial test of `pattern` with `yarn` (the layout is the procedural tile's
-/// for the shared yarn's radius, see [`persistent_fabric`]).
+impl PersistentLayout {
+    /// Label in tables and legends.
+    pub fn label(self) -> &'static str {
+        match self {
+            PersistentLayout::TileLoop => "persistent swatch (tile's loop)",
+            PersistentLayout::Seed000 => "persistent swatch (seed 000 layout)",
+        }
+    }
+}
+
+/// The relaxed tile's yarn per loop (m): its rest length over the loops it holds.
+pub fn tile_loop_length(pattern: Pattern, tile: &yarn_pattern::tile::Tile) -> f64 {
+    let [wales, courses] = pattern.repeat();
+    tile.rest_lengths.iter().sum::<f64>() / (wales * courses) as f64
+}
+
+/// The persistent swatch of `pattern` (`n × n` stitches or yarns) and its `layout`, both
+/// from the pattern's relaxed `tile` ([`rest_tile`]): loop width and row height (yarn
+/// spacing of a weave) are the tile's period over its repeat.
+pub fn persistent_fabric(
+    pattern: Pattern,
+    n: usize,
+    tile: &yarn_pattern::tile::Tile,
+    layout: PersistentLayout,
+) -> anyhow::Result<(Fabric, LayoutParams)> {
+    let fabric = |n: usize| -> anyhow::Result<Fabric> {
+        Ok(match pattern {
+            Pattern::Stockinette => {
+                Fabric::Knit(Chart::stockinette(n, n)?, Construction::FlatPerRow)
+            }
+            Pattern::Garter => Fabric::Knit(Chart::garter(n, n)?, Construction::FlatPerRow),
+            Pattern::Rib1x1 => Fabric::Knit(Chart::rib(n, n, 1, 1)?, Construction::FlatPerRow),
+            Pattern::PlainWeave => Fabric::Weave {
+                pattern: WeavePattern::Plain,
+                warps: n,
+                wefts: n,
+            },
+            other => anyhow::bail!("no persistent swatch for {}", other.name()),
+        })
+    };
+    let [wales, courses] = pattern.repeat();
+    let mut params = LayoutParams::new(tile.period[0] / wales as f64, tile.radius);
+    params.row_height = tile.period[1] / courses as f64;
+    if layout == PersistentLayout::TileLoop && pattern.is_knit() {
+        // The yarn per loop of a swatch counts its edges, which hold less (the bind-off lies
+        // in the plane, the rows end): solved on a 4 × 4 swatch the offset is 15 % larger than
+        // on a 40 × 40 one, and 1.5 % between 20 × 20 and 40 × 40 (stockinette). The tile is
+        // an interior loop, so the offset is solved on the large swatch.
+        params = params
+            .with_loop_length(
+                &fabric(LOOP_LENGTH_SWATCH)?.topology()?,
+                tile_loop_length(pattern, tile),
+            )
+            .with_context(|| format!("{} persistent layout of the tile's loop", pattern.name()))?;
+    }
+    Ok((fabric(n)?, params))
+}
+
+/// Stitches per side of the swatch on which [`PersistentLayout::TileLoop`]'s offset is
+/// solved.
+pub const LOOP_LENGTH_SWATCH: usize = 40;
+
+/// The persistent uniaxial test of `pattern` with `yarn`, in `layout` from the pattern's
+/// relaxed `tile` ([`persistent_fabric`]).
 pub fn persistent_test(
     pattern: Pattern,
     pull: Pull,
     quick: bool,
     yarn: &YarnMaterial,
+    tile: &yarn_pattern::tile::Tile,
+    layout: PersistentLayout,
 ) -> anyhow::Result<UniaxialTest> {
     let (n, max_stretch, steps) = sizes(quick);
-    let (fabric, [w, h]) = persistent_fabric(pattern, n)?;
+    let (fabric, layout) = persistent_fabric(pattern, n, tile, layout)?;
     let mut params = YarnParams::from_material(yarn).map_err(anyhow::Error::msg)?;
     params.gravity *= 0.0;
     let settings = SwatchSettings {
         params,
         ..SwatchSettings::default()
     };
-    let mut layout = LayoutParams::new(w, yarn.radius);
-    layout.row_height = h;
     Ok(UniaxialTest {
         fabric,
         pull,
@@ -166,37 +239,25 @@ pub fn persistent_test(
         layout,
         settings,
         settle_free: false,
+        zero_force_start: true,
     })
 }
 
-/// Yarn length per unit course width, `(persistent layout, periodic rest tile)`, of a knit
-/// `pattern` (unitless): the yarn of one interior course of the persistent swatch (its
-/// sliding-coordinate span) over the course's width, and the rest lengths of the relaxed,
-/// stress-free tile over its width and its number of courses. A course pulled in weft runs
-/// taut when its yarn is straight; the more yarn per width, the later. `tile` is the pattern's
-/// [`rest_tile`].
-pub fn yarn_per_course_width(
+/// Yarn per loop (m) of a knit `pattern`'s persistent swatch in `layout`
+/// ([`sim_persistent::layout::Layout::yarn_per_loop`], [`LOOP_LENGTH_SWATCH`] stitches a side) and of its relaxed
+/// `tile` ([`tile_loop_length`]). The more yarn per loop, the later a course pulled in weft
+/// runs taut.
+pub fn yarn_per_loop(
     pattern: Pattern,
     tile: &yarn_pattern::tile::Tile,
+    layout: PersistentLayout,
 ) -> anyhow::Result<(f64, f64)> {
-    let n = 10;
-    let (fabric, [w, h]) = persistent_fabric(pattern, n)?;
     anyhow::ensure!(pattern.is_knit(), "{} is not a knit", pattern.name());
-    let yarn = yarn();
+    let (fabric, params) = persistent_fabric(pattern, LOOP_LENGTH_SWATCH, tile, layout)?;
     let topology = fabric.topology()?;
-    let mut params = LayoutParams::new(w, yarn.radius);
-    params.row_height = h;
-    let layout = sim_persistent::layout::Layout::new(&topology, &params)?;
-    let course = &topology.yarns[n / 2];
-    let u = |p: &sim_persistent::topology::Pass| layout.sliding[p.node][p.slot];
-    let (first, last) = (
-        course.passes.first().context("empty course")?,
-        course.passes.last().context("empty course")?,
-    );
-    let persistent = (u(last) - u(first)) / (n as f64 * w);
-    let courses = (tile.period[1] / h).round().max(1.0);
-    let periodic = tile.rest_lengths.iter().sum::<f64>() / tile.period[0] / courses;
-    Ok((persistent, periodic))
+    let persistent =
+        sim_persistent::layout::Layout::new(&topology, &params)?.yarn_per_loop(&topology)?;
+    Ok((persistent, tile_loop_length(pattern, tile)))
 }
 
 /// The procedural tile of `pattern` for the shared yarn, relaxed (rest-shape rounds) and
@@ -240,15 +301,25 @@ pub fn shell_curves(
     quick: bool,
 ) -> anyhow::Result<(ShellCurves, f64)> {
     let first = runs.first().context("no persistent runs")?;
-    let (nx, ny, max_iterations) = if quick { (10, 6, 40) } else { (20, 12, 200) };
+    // Every direction on a shell swatch of its run's length and width, meshed with elements
+    // of one size (the first run's length over `nx`; an even count of at least 4 cells each
+    // way, so that a node column sits at mid-length).
+    let (nx, max_iterations) = if quick { (10, 40) } else { (20, 200) };
+    let element = first.length / nx as f64;
+    let cells = |extent: f64| 2 * ((0.5 * extent / element).round() as usize).max(2);
+    let swatch_of = |run: &UniaxialRun| SwatchConfig {
+        length: run.length,
+        width: run.width,
+        nx: cells(run.length),
+        ny: cells(run.width),
+        ..SwatchConfig::default()
+    };
     let opts = FabricFitOptions {
-        swatch: SwatchConfig {
-            length: first.length,
-            width: first.width,
-            nx,
-            ny,
-            ..SwatchConfig::default()
-        },
+        swatch: swatch_of(first),
+        direction_swatches: runs
+            .iter()
+            .map(|run| (direction_of(run.pull), swatch_of(run)))
+            .collect(),
         max_iterations,
         ..FabricFitOptions::default()
     };
@@ -262,7 +333,7 @@ pub fn shell_curves(
                 .skip(1)
                 .map(|p| MeasuredPoint {
                     s: p.stretch,
-                    force: p.stress * opts.swatch.width,
+                    force: p.stress * run.width,
                     compression: p.compression,
                 })
                 .collect(),
@@ -300,7 +371,13 @@ pub fn shell_curves(
                     .bins_simulated
                     .iter()
                     .filter(|t| t.direction == m.direction)
-                    .map(|t| (t.s, t.force / opts.swatch.width, t.compression)),
+                    .map(|t| {
+                        (
+                            t.s,
+                            t.force / opts.direction_swatches[&m.direction].width,
+                            t.compression,
+                        )
+                    }),
             )
             .collect();
         let homogeneous = uniform
@@ -337,13 +414,21 @@ pub fn at(points: &[(f64, f64, f64)], s: f64) -> (f64, f64) {
     (f64::NAN, f64::NAN)
 }
 
-/// Methods, in table order.
-pub const METHODS: [&str; 4] = [
-    "persistent swatch",
+/// Methods, in table order (the weave has one persistent layout: its first).
+pub const METHODS: [&str; 5] = [
+    "persistent swatch (seed 000 layout)",
+    "persistent swatch (tile's loop)",
     "periodic tile",
     "shell, clamped",
     "shell, uniform",
 ];
+
+/// One sample of a curve: stretch `s`, stress `σ` (N/m), compression `c`.
+pub type CurvePoint = (f64, f64, f64);
+
+/// Stresses at or below this (N/m) are left off the log-scale stress charts (they are in
+/// `data.csv`).
+const SMALLEST_PLOTTED_STRESS: f64 = 1e-2;
 
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let (_, max_stretch, steps) = sizes(ctx.quick);
@@ -358,66 +443,105 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let mut charts = Vec::new();
     let mut seconds = BTreeMap::new();
     for (fi, &(name, pattern)) in fabrics.iter().enumerate() {
-        let mut runs = Vec::new();
-        for pull in [Pull::Weft, Pull::Warp] {
-            let run = persistent_test(pattern, pull, ctx.quick, &yarn())?
-                .run_until_failure()
-                .with_context(|| format!("{name} {} persistent swatch", pull.name()))?;
-            if let Some(e) = &run.failure {
-                summary.push((
-                    format!("{name} {} persistent swatch stops", pull.name()),
-                    e.clone(),
-                ));
-            }
-            runs.push(run);
-        }
-        let (shell, shell_error) =
-            shell_curves(name, &runs, ctx.quick).with_context(|| format!("{name} shell"))?;
-        summary.push((
-            format!("{name} shell fit"),
-            format!(
-                "force error {} of the stiffening shell against the persistent swatch (paper metric, every sample)",
-                crate::percent(shell_error)
-            ),
-        ));
-        // The tile is relaxed once per fabric, for both directions.
+        // The tile is relaxed once per fabric: both layouts and both directions use it.
         let tile = rest_tile(pattern).with_context(|| format!("{name} periodic rest tile"))?;
+        let layouts: &[PersistentLayout] = if pattern.is_knit() {
+            &[PersistentLayout::Seed000, PersistentLayout::TileLoop]
+        } else {
+            &[PersistentLayout::Seed000]
+        };
         if pattern.is_knit() {
-            let (persistent, periodic) = yarn_per_course_width(pattern, &tile)?;
+            let (_, periodic) = yarn_per_loop(pattern, &tile, PersistentLayout::TileLoop)?;
+            let (seed000, _) = yarn_per_loop(pattern, &tile, PersistentLayout::Seed000)?;
+            let (_, params) = persistent_fabric(
+                pattern,
+                sizes(ctx.quick).0,
+                &tile,
+                PersistentLayout::TileLoop,
+            )?;
             summary.push((
-                format!("{name} yarn per course width"),
+                format!("{name} yarn per loop"),
                 format!(
-                    "persistent layout {persistent:.3}, periodic rest tile {periodic:.3} (tile / persistent {:.2})",
-                    periodic / persistent
+                    "relaxed tile {:.3} mm; seed 000 layout {:.3} mm (tile / layout {:.2}); the tile's loop needs an out-of-plane offset of {:.3} mm = {:.2} R",
+                    periodic * 1e3,
+                    seed000 * 1e3,
+                    periodic / seed000,
+                    params.out_of_plane * 1e3,
+                    params.out_of_plane / tile.radius
                 ),
             ));
         }
-        for run in &runs {
-            let d = direction_of(run.pull);
-            let persistent: Vec<(f64, f64, f64)> = run
-                .samples
-                .iter()
-                .map(|p| (p.stretch, p.stress, p.compression))
-                .collect();
+        // runs[layout][direction]: the seed 000 layout's must succeed (the shell is fitted to
+        // them); a tile's-loop run that cannot start is reported and left out.
+        let mut runs: Vec<Vec<Option<UniaxialRun>>> = Vec::new();
+        for &layout in layouts {
+            let mut per_layout = Vec::new();
+            for pull in [Pull::Weft, Pull::Warp] {
+                let what = format!("{name} {} {}", pull.name(), layout.label());
+                let run = persistent_test(pattern, pull, ctx.quick, &yarn(), &tile, layout)?
+                    .run_until_failure()
+                    .with_context(|| what.clone());
+                let run = match (run, layout) {
+                    (Ok(run), _) => run,
+                    (Err(e), PersistentLayout::TileLoop) => {
+                        summary.push((format!("{what} has no curve"), format!("{e:#}")));
+                        per_layout.push(None);
+                        continue;
+                    }
+                    (Err(e), PersistentLayout::Seed000) => return Err(e),
+                };
+                if let Some(e) = &run.failure {
+                    summary.push((format!("{what} stops"), e.clone()));
+                }
+                per_layout.push(Some(run));
+            }
+            runs.push(per_layout);
+        }
+        let fitted_runs: Vec<UniaxialRun> = runs[0].iter().flatten().cloned().collect();
+        let (shell, shell_error) =
+            shell_curves(name, &fitted_runs, ctx.quick).with_context(|| format!("{name} shell"))?;
+        summary.push((
+            format!("{name} shell fit"),
+            format!(
+                "force error {} of the stiffening shell against the persistent swatch in seed 000's layout (paper metric, every sample)",
+                crate::percent(shell_error)
+            ),
+        ));
+        for (di, pull) in [Pull::Weft, Pull::Warp].into_iter().enumerate() {
+            let d = direction_of(pull);
+            let samples = |run: &UniaxialRun| -> Vec<(f64, f64, f64)> {
+                run.samples
+                    .iter()
+                    .map(|p| (p.stretch, p.stress, p.compression))
+                    .collect()
+            };
             let stretches: Vec<f64> = (0..=steps)
                 .map(|k| max_stretch * k as f64 / steps as f64)
                 .collect();
             let periodic = periodic_curve(&tile, d, &stretches)
                 .with_context(|| format!("{name} {} periodic tile", d.name()))?;
             let (clamped, uniform) = &shell[&d];
-            let curves = [&persistent, &periodic, clamped, uniform];
-            for (mi, curve) in curves.iter().enumerate() {
-                for &(s, sigma, c) in curve.iter() {
-                    data.push_row([fi as f64, d.angle().to_degrees(), mi as f64, s, sigma, c]);
+            // (method index into METHODS, curve)
+            let mut curves: Vec<(usize, Vec<CurvePoint>)> = runs
+                .iter()
+                .enumerate()
+                .filter_map(|(li, r)| Some((li, samples(r[di].as_ref()?))))
+                .collect();
+            curves.push((2, periodic));
+            curves.push((3, clamped.clone()));
+            curves.push((4, uniform.clone()));
+            for (mi, curve) in &curves {
+                for &(s, sigma, c) in curve {
+                    data.push_row([fi as f64, d.angle().to_degrees(), *mi as f64, s, sigma, c]);
                 }
             }
             // Agreement: stress at 10, 30, 50 %, initial stiffness, compression at 30 %.
             let mut row = Vec::new();
-            for (mi, curve) in curves.iter().enumerate() {
+            for (mi, curve) in &curves {
                 let sig = |s: f64| at(curve, s).0;
                 row.push(format!(
                     "{}: σ(10/30/50 %) = {:.2} / {:.2} / {:.2} N/m, initial stiffness (σ(5 %) − σ(0))/0.05 = {:.1} N/m, c(30 %) = {:.3}",
-                    METHODS[mi],
+                    METHODS[*mi],
                     sig(0.1),
                     sig(0.3),
                     sig(0.5),
@@ -426,25 +550,47 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 ));
             }
             summary.push((format!("{name} {}", d.name()), row.join("; ")));
-            // One chart per quantity: stress (σ) and compression (c).
-            for (quantity, y_label, pick) in [
-                ("stress", "σ (N/m)", 1),
-                ("compression", "orthogonal compression c", 2),
-            ] {
-                let chart = curves.iter().enumerate().fold(
-                    LineChart::new(format!("{name}, {}: {quantity}", d.name()))
+            // One chart per quantity: stress (σ, log scale: the methods differ by orders of
+            // magnitude) and compression (c).
+            // Every method in every chart, so that each keeps its colour; one without a curve
+            // here (a weave's single layout, a tile's-loop run that could not start) says so.
+            let curves = &curves;
+            let chart_series = |pick: fn(&CurvePoint) -> Option<(f64, f64)>| {
+                (0..METHODS.len()).map(move |mi| {
+                    let curve = curves.iter().find(|(m, _)| *m == mi).map(|(_, c)| c);
+                    let name = match curve {
+                        Some(_) => METHODS[mi].to_string(),
+                        None => format!("{} (no curve)", METHODS[mi]),
+                    };
+                    let points: Vec<(f64, f64)> =
+                        curve.into_iter().flatten().filter_map(pick).collect();
+                    Series::line_markers(name, points)
+                })
+            };
+            let stress = chart_series(|p| (p.1 > SMALLEST_PLOTTED_STRESS).then_some((p.0, p.1)))
+                .fold(
+                    LineChart::new(format!("{name}, {}: stress", d.name()))
                         .x_label("stretch s")
-                        .y_label(y_label),
-                    |chart, (mi, c)| {
-                        chart.series(Series::line_markers(
-                            METHODS[mi],
-                            c.iter().map(|p| (p.0, if pick == 1 { p.1 } else { p.2 })),
-                        ))
-                    },
+                        .y_label("σ (N/m, log)")
+                        .log_y(),
+                    LineChart::series,
                 );
-                charts.push(chart);
+            let compression = chart_series(|p| Some((p.0, p.2))).fold(
+                LineChart::new(format!("{name}, {}: compression", d.name()))
+                    .x_label("stretch s")
+                    .y_label("orthogonal compression c"),
+                LineChart::series,
+            );
+            charts.push(stress);
+            charts.push(compression);
+            for (li, layout) in layouts.iter().enumerate() {
+                if let Some(run) = &runs[li][di] {
+                    seconds.insert(
+                        format!("{name} {} {}", d.name(), layout.label()),
+                        run.seconds,
+                    );
+                }
             }
-            seconds.insert(format!("{name} {}", d.name()), run.seconds);
         }
         progress.inc(1);
     }

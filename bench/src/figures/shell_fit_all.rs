@@ -66,6 +66,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             ..SwatchConfig::default()
         },
         max_iterations,
+        ..FabricFitOptions::default()
     };
     let bins = BinOptions {
         bins: 24,

@@ -719,6 +719,7 @@ fn main() -> Result<()> {
                     test: fit.test(),
                     swatch: fit.swatch(),
                     max_iterations: fit.max_iterations,
+                    ..FabricFitOptions::default()
                 },
                 bins: fit.bins,
                 holdout,

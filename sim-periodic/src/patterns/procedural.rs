@@ -106,6 +106,18 @@ impl Pattern {
         }
     }
 
+    /// The repeat a tile of the pattern holds, `[along x, along y]`: loops per course and
+    /// courses of a knit, warps and wefts of a weave.
+    pub fn repeat(self) -> [usize; 2] {
+        if self.is_knit() {
+            let stitches = self.stitches();
+            [stitches[0].len(), stitches.len()]
+        } else {
+            let m = self.interlacing();
+            [m.len(), m[0].len()]
+        }
+    }
+
     /// Stitch types (`+1` knit, `−1` purl) by course, for knits.
     fn stitches(self) -> Vec<Vec<i8>> {
         match self {

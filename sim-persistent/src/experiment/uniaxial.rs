@@ -11,6 +11,8 @@
 //! - The swatch is clamped flat in its layout and settles between the clamps (damped
 //!   dynamics for [`SwatchSettings::settle_time`], then a static solve: the first sample), or,
 //!   with [`UniaxialTest::settle_free`], settles free first and is clamped where it lies.
+//! - With [`UniaxialTest::zero_force_start`] the pulled clamp is then moved to where the
+//!   swatch exerts no force on it, and the curve starts there.
 //! - Every load step moves the pulled clamp by `max_stretch · L₀ / steps` along the line
 //!   between the clamps and solves the static equilibrium
 //!   ([`Simulator::solve_static`]; friction anchors updated after every solve), so the curve
@@ -116,7 +118,19 @@ pub struct UniaxialTest {
     /// mounted flat in a test machine, while a free stockinette of a few stitches rolls up
     /// into a tube whose clamped edges are no longer a clamp line).
     pub settle_free: bool,
+    /// Start the curve where the clamps carry no force (`true`): after the settle, the pulled
+    /// clamp is moved along the pull until the swatch's force on it changes sign, and then back
+    /// to the interpolated zero (`zero_force`), as a test machine removes the slack and
+    /// the preload before it measures. `L₀` is then the zero-force length, and the curve
+    /// starts stress-free, as a relaxed periodic tile does. `false` (the default): the curve
+    /// starts at the layout's clamp distance, with whatever force the settled swatch exerts
+    /// there (seed 000's loops are bent at rest, so a clamped swatch pushes or pulls).
+    pub zero_force_start: bool,
 }
+
+/// Most static solves of the zero-force start's search
+/// ([`UniaxialTest::zero_force_start`]).
+pub const ZERO_FORCE_MAX_SOLVES: usize = 200;
 
 /// One load step of a [`UniaxialTest`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -169,7 +183,7 @@ impl UniaxialTest {
 
     /// [`UniaxialTest::run`], but a load step that fails after its halvings ends the curve:
     /// the run keeps the samples before it and says why in [`UniaxialRun::failure`]. The
-    /// settle and the first static solve must succeed.
+    /// settle, the first static solve and the zero-force start must succeed.
     pub fn run_until_failure(&self) -> anyhow::Result<UniaxialRun> {
         let start = Instant::now();
         anyhow::ensure!(
@@ -257,9 +271,21 @@ impl UniaxialTest {
             settle_iterations += run_steps(&mut sim, s.steps(s.settle_time))
                 .context("settling the clamped swatch")?;
         }
-        let first = sim
+        let mut first = sim
             .solve_static()
             .context("static solve of the clamped swatch")?;
+        let force_at = |sim: &Simulator| -sim.force_on_nodes(&pulled).dot(&axis);
+        if self.zero_force_start {
+            let probe = 0.5 * self.max_stretch * length / self.steps as f64;
+            first.iterations += zero_force(&mut sim, &pulled, axis, probe, force_at)
+                .context("moving the clamp to zero force")?;
+        }
+        let length = if self.zero_force_start {
+            let p = positions(&sim);
+            (centroid(&p, &pulled) - centroid(&p, &fixed)).norm()
+        } else {
+            length
+        };
         let w0 = width_at(&sim)?;
         anyhow::ensure!(w0 > 0.0, "the measuring lines coincide after the settle");
         let width = w0 * periods as f64 / (b - a) as f64;
@@ -269,7 +295,7 @@ impl UniaxialTest {
         let mut sample = |sim: &Simulator, newton_iterations: usize| -> anyhow::Result<()> {
             let p = positions(sim);
             let l = (centroid(&p, &pulled) - centroid(&p, &fixed)).norm();
-            let force = -sim.force_on_nodes(&pulled).dot(&axis);
+            let force = force_at(sim);
             samples.push(UniaxialSample {
                 stretch: l / length - 1.0,
                 force,
@@ -332,6 +358,65 @@ impl UniaxialTest {
     }
 }
 
+/// Moves the `pulled` clamp along `axis` to where `force` (the swatch's pull on it, positive
+/// in tension) vanishes ([`UniaxialTest::zero_force_start`]): steps of `step` against the
+/// force (out under compression, in under tension), each a static solve and halved up to
+/// [`MAX_HALVINGS`] times where the solve fails, until the force changes sign; then one move
+/// back to the zero of the straight line through the last two forces, and a last solve.
+/// With friction the force depends on the path (the yarns slip between solves), so the
+/// search only ever reverses once, like a test machine backing off its overshoot; the force
+/// that remains is the curve's first sample. Returns the Newton iterations; an error if the
+/// force keeps its sign for [`ZERO_FORCE_MAX_SOLVES`] solves.
+fn zero_force(
+    sim: &mut Simulator,
+    pulled: &[usize],
+    axis: V3,
+    step: f64,
+    force: impl Fn(&Simulator) -> f64,
+) -> anyhow::Result<usize> {
+    let f0 = force(sim);
+    if f0 == 0.0 {
+        return Ok(0);
+    }
+    let direction = -f0.signum();
+    let (mut iterations, mut solves) = (0, 0);
+    let (mut at, mut f) = (0.0, f0);
+    let mut part = step;
+    loop {
+        anyhow::ensure!(
+            solves < ZERO_FORCE_MAX_SOLVES,
+            "the clamp force keeps its sign over {ZERO_FORCE_MAX_SOLVES} static solves \
+             ({f0:.4e} N at the settled length, {f:.4e} N after moving the clamp {at:.4e} m)"
+        );
+        solves += 1;
+        let d = direction * part;
+        sim.displace_pinned_nodes(pulled, axis * d)?;
+        match sim.solve_static() {
+            Ok(report) => {
+                iterations += report.iterations;
+                let next = force(sim);
+                if next.signum() != f.signum() {
+                    // Back to the zero of the line through (at, f) and (at + d, next).
+                    let back = d * next / (next - f);
+                    sim.displace_pinned_nodes(pulled, -axis * back)?;
+                    iterations += sim.solve_static()?.iterations;
+                    return Ok(iterations);
+                }
+                (at, f) = (at + d, next);
+            }
+            Err(e) => {
+                sim.displace_pinned_nodes(pulled, -axis * d)?;
+                anyhow::ensure!(
+                    part > step / f64::from(1 << MAX_HALVINGS),
+                    "moving the clamp {at:.4e} m towards zero force, after {MAX_HALVINGS} \
+                     halvings: {e}"
+                );
+                part *= 0.5;
+            }
+        }
+    }
+}
+
 /// The lines of yarn crossings parallel to the pull, as `(count, periods across, nodes of
 /// line k)`: row boundaries of a knit pulled in weft (`h + 1` lines, `h` rows across), stitch
 /// columns of a knit pulled in warp (`w` lines and periods), wefts or warps of a weave.
@@ -372,5 +457,6 @@ pub fn default_test(fabric: Fabric, pull: Pull) -> UniaxialTest {
         layout: LayoutParams::new(LOOP_WIDTH, settings.params.radius),
         settings,
         settle_free: false,
+        zero_force_start: false,
     }
 }

@@ -34,7 +34,8 @@
 //! preset = "sweater"   # Table 1: "sweater", "shirt", "pullover"; default "sweater"
 //! # overrides, all optional (SI units): radius, young_modulus, bending_modulus,
 //! # linear_density, wrapping_stiffness, friction_coefficient, friction_max_force, loop_width,
-//! # gravity = [x, y, z]
+//! # gravity = [x, y, z]; for a knit's layout also row_height (default: the loop width) and
+//! # loop_length (yarn per loop; the out-of-plane offset is solved for it, default R/4)
 //!
 //! [damping]            # Rayleigh α (1/s) and β (s); defaults: the preset's Table 1 values
 //! alpha = 10.0
@@ -88,6 +89,8 @@
 //! max_stretch = 0.4    # largest stretch s
 //! load_steps = 20      # quasi-static load steps; each is a row of uniaxial.csv
 //! settle_free = false  # settle free before clamping (default: clamped flat)
+//! zero_force_start = false  # move the clamp to zero force first, as a test machine
+//!                      # removes its preload (default: start at the layout's length)
 //!
 //! [output]             # all optional (crate::output::OutputSpec)
 //! formats = ["obj", "ply", "bcc", "png"]   # also "nodes"; default ["obj"]
@@ -131,6 +134,7 @@ use crate::integrator::{SimError, Simulator, StepSettings};
 use crate::layout::{Layout, LayoutError, LayoutParams};
 use crate::output::{OutputError, OutputSpec};
 use crate::params::YarnParams;
+use crate::topology::Topology;
 use rod::geometry::V3;
 use serde::Deserialize;
 use specs::de_pattern;
@@ -248,6 +252,9 @@ pub struct UniaxialSpec {
     /// Settle free before clamping.
     #[serde(default)]
     pub settle_free: bool,
+    /// Start at the clamp distance of zero force.
+    #[serde(default)]
+    pub zero_force_start: bool,
 }
 
 fn default_dt() -> f64 {
@@ -456,6 +463,25 @@ impl Scene {
         ))
     }
 
+    /// The layout parameters of `[yarn]` for `topology`: loop width, row height and, with
+    /// `loop_length`, the out-of-plane offset that gives the layout that yarn per loop.
+    pub fn layout_params(&self, topology: &Topology) -> Result<LayoutParams, SceneError> {
+        let (params, loop_width, ..) = self.yarn()?;
+        let mut layout = LayoutParams::new(loop_width, params.radius);
+        if let Some(h) = self.yarn.row_height {
+            layout.row_height = h;
+        }
+        match self.yarn.loop_length {
+            Some(length) => layout
+                .with_loop_length(topology, length)
+                .map_err(|e| SceneError::Invalid(format!("[yarn] loop_length: {e}"))),
+            None => {
+                layout.validate()?;
+                Ok(layout)
+            }
+        }
+    }
+
     /// The virtual swatch test of `[uniaxial]`, if the scene has one: the scene's fabric,
     /// yarn, loop width, force terms and time step, with `steps × dt` of damped settle.
     pub fn uniaxial_test(&self) -> Result<Option<UniaxialTest>, SceneError> {
@@ -488,7 +514,7 @@ impl Scene {
         }
         let pull = Pull::parse(&u.direction)
             .map_err(|e| SceneError::Invalid(format!("[uniaxial] direction: {e}")))?;
-        let (params, loop_width, ..) = self.yarn()?;
+        let (params, ..) = self.yarn()?;
         let settings = SwatchSettings {
             dt: self.dt,
             settle_time: self.steps as f64 * self.dt,
@@ -497,14 +523,17 @@ impl Scene {
             params,
             ..SwatchSettings::default()
         };
+        let fabric = self.fabric()?;
+        let layout = self.layout_params(&fabric.topology()?)?;
         Ok(Some(UniaxialTest {
-            fabric: self.fabric()?,
+            fabric,
             pull,
             max_stretch: u.max_stretch,
             steps: u.load_steps,
-            layout: LayoutParams::new(loop_width, params.radius),
+            layout,
             settings,
             settle_free: u.settle_free,
+            zero_force_start: u.zero_force_start,
         }))
     }
 
@@ -531,9 +560,9 @@ impl Scene {
             return Err(SceneError::Invalid("output_every must be ≥ 1".into()));
         }
         let fabric = self.fabric()?;
-        let (params, loop_width, alpha, beta) = self.yarn()?;
+        let (params, _, alpha, beta) = self.yarn()?;
         let topology = fabric.topology()?;
-        let layout = Layout::new(&topology, &LayoutParams::new(loop_width, params.radius))?;
+        let layout = Layout::new(&topology, &self.layout_params(&topology)?)?;
         let forces = self.force_set();
         let settings = StepSettings {
             dt: self.dt,

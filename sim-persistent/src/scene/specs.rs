@@ -215,6 +215,12 @@ pub struct YarnSpec {
     pub friction_coefficient: Option<f64>,
     /// Loop width of the layout (m; default the preset's Table 1 value).
     pub loop_width: Option<f64>,
+    /// Row height of a knit's layout (m; default the loop width).
+    pub row_height: Option<f64>,
+    /// Yarn per loop of a knit's layout (m; the stitch length): the layout's out-of-plane
+    /// offset is solved for it ([`crate::layout::LayoutParams::with_loop_length`]). Default:
+    /// none, the offset is a quarter of the radius.
+    pub loop_length: Option<f64>,
     /// Gravity (m/s²).
     pub gravity: Option<[f64; 3]>,
 }

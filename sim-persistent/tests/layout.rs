@@ -1,0 +1,145 @@
+//! Layouts of a given yarn per loop (`LayoutParams::with_loop_length`) and the scene keys
+//! that set them.
+
+use sim_persistent::chart::Chart;
+use sim_persistent::layout::{Layout, LayoutParams};
+use sim_persistent::scene::{Fabric, Scene};
+use sim_persistent::topology::{Construction, Topology};
+use sim_persistent::weave::WeavePattern;
+use std::path::Path;
+
+const R: f64 = 1e-3;
+
+fn stockinette(n: usize) -> Topology {
+    Fabric::Knit(Chart::stockinette(n, n).unwrap(), Construction::FlatPerRow)
+        .topology()
+        .unwrap()
+}
+
+fn yarn_per_loop(topology: &Topology, params: &LayoutParams) -> f64 {
+    Layout::new(topology, params)
+        .unwrap()
+        .yarn_per_loop(topology)
+        .unwrap()
+}
+
+/// The yarn per loop grows with the out-of-plane offset, and the solved offset gives the
+/// requested length to the bisection's tolerance; a chart with purls (rib) as well.
+#[test]
+fn the_solved_offset_gives_the_requested_yarn_per_loop() {
+    for topology in [
+        stockinette(8),
+        Fabric::Knit(Chart::rib(6, 5, 1, 1).unwrap(), Construction::Flat)
+            .topology()
+            .unwrap(),
+    ] {
+        let base = LayoutParams::new(7.5 * R, R);
+        let lengths: Vec<f64> = [0.1, 0.5, 1.0, 2.0, 4.0]
+            .iter()
+            .map(|d| {
+                yarn_per_loop(
+                    &topology,
+                    &LayoutParams {
+                        out_of_plane: d * R,
+                        ..base
+                    },
+                )
+            })
+            .collect();
+        assert!(lengths.windows(2).all(|w| w[1] > w[0]), "{lengths:?}");
+        for target in [1.1 * lengths[0], 0.5 * (lengths[2] + lengths[3])] {
+            let solved = base.with_loop_length(&topology, target).unwrap();
+            let got = yarn_per_loop(&topology, &solved);
+            assert!((got / target - 1.0).abs() < 1e-9, "{got} vs {target}");
+            // Only the offset changes.
+            assert_eq!(solved.loop_width, base.loop_width);
+            assert_eq!(solved.row_height, base.row_height);
+            assert_eq!(solved.contact_length, base.contact_length);
+        }
+    }
+}
+
+/// What the layout cannot reach, and weaves, are errors that say why.
+#[test]
+fn unreachable_loop_lengths_and_weaves_are_errors() {
+    let topology = stockinette(4);
+    let base = LayoutParams::new(7.5 * R, R);
+    let flat = yarn_per_loop(
+        &topology,
+        &LayoutParams {
+            out_of_plane: 1e-9 * base.loop_width,
+            ..base
+        },
+    );
+    for (length, needle) in [
+        (0.9 * flat, "out of this layout's reach"),
+        (100.0 * flat, "out of this layout's reach"),
+        (f64::NAN, "finite and > 0"),
+        (-1.0, "finite and > 0"),
+    ] {
+        let e = base
+            .with_loop_length(&topology, length)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(needle), "{length}: {e}");
+    }
+    let weave = Fabric::Weave {
+        pattern: WeavePattern::Plain,
+        warps: 4,
+        wefts: 4,
+    }
+    .topology()
+    .unwrap();
+    let e = base.with_loop_length(&weave, flat).unwrap_err().to_string();
+    assert!(e.contains("weave"), "{e}");
+}
+
+const SCENE: &str = r#"dt = 1e-3
+steps = 2
+
+[pattern]
+builder = "stockinette"
+width = 6
+height = 6
+
+[yarn]
+preset = "sweater"
+loop_width = 7.5e-3
+row_height = 4e-3
+LOOP
+"#;
+
+/// `[yarn] row_height` and `loop_length` reach the scene's simulator and its uniaxial test;
+/// an unreachable length names the key.
+#[test]
+fn scene_keys_set_row_height_and_loop_length() {
+    let scene = |extra: &str| {
+        Scene::parse(&SCENE.replace("LOOP", extra), Path::new("layout.toml")).unwrap()
+    };
+    let topology = stockinette(6);
+    let plain = scene("").layout_params(&topology).unwrap();
+    assert_eq!(plain.row_height, 4e-3);
+    let flat = yarn_per_loop(&topology, &plain);
+    let target = 1.3 * flat;
+    let params = scene(&format!("loop_length = {target}"))
+        .layout_params(&topology)
+        .unwrap();
+    assert!((yarn_per_loop(&topology, &params) / target - 1.0).abs() < 1e-9);
+    assert!(params.out_of_plane > plain.out_of_plane);
+    // The simulator starts in that layout: its nodes are the layout's.
+    let run = scene(&format!("loop_length = {target}")).build().unwrap();
+    let layout = Layout::new(&topology, &params).unwrap();
+    let dofs = run.sim.dofs();
+    for (n, p) in layout.positions.iter().enumerate() {
+        assert_eq!(dofs.position(&run.sim.state().q, n), *p);
+    }
+    let e = scene("loop_length = 1e-6")
+        .build()
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("[yarn] loop_length") && e.contains("reach"),
+        "{e}"
+    );
+}
