@@ -64,3 +64,27 @@ fn with_the_tiles_yarn_the_persistent_knit_loses_its_stiffness() {
         "{matched} vs {seed000}"
     );
 }
+
+/// The 1×1 rib pulled in warp in the tile's-loop layout is far stiffer than the tile, not
+/// softer like the weft pulls: clamped, it pushes on the clamps (seed 000's bending is at
+/// rest straight, and the deep zigzag of the tile's loop bends its legs), so the zero-force
+/// start lengthens it, here to 1.43× seed 000's zero-force length (1.47× in the full
+/// `cross-method`): the added yarn is spent before the pull begins.
+#[test]
+fn the_tiles_loop_rib_unfolds_before_its_warp_pull() {
+    let pattern = Pattern::Rib1x1;
+    let tile = rest_tile(pattern).unwrap();
+    let length = |layout| {
+        persistent_test(pattern, Pull::Warp, true, &yarn(), &tile, layout)
+            .unwrap()
+            .run()
+            .unwrap()
+            .length
+    };
+    let (seed000, matched) = (
+        length(PersistentLayout::Seed000),
+        length(PersistentLayout::TileLoop),
+    );
+    println!("zero-force length: seed 000 layout {seed000:.5} m, tile's loop {matched:.5} m");
+    assert!(matched > 1.2 * seed000, "{matched} vs {seed000}");
+}

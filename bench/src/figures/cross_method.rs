@@ -43,13 +43,15 @@
 //!   yarn's stiff stretch regime. Friction, the stitch-length energy and wrapping change it
 //!   by 14 % at most (measured once).
 //! - *The same knits with the tile's yarn per loop* (offset 1.33–1.73 R) *are softer than the
-//!   tile*: stockinette weft 47× at 30 %, rib weft 78×. So the yarn length was the cause of
+//!   tile* in weft: stockinette 47× at 30 %, rib 78×. So the yarn length was the cause of
 //!   the stiffness (tested: 600× softer at 20 % on the quick swatch), and what remains is the
 //!   model: the persistent swatch stores the extra yarn in its out-of-plane zigzag, which
 //!   the pull flattens against node bending and friction alone, while the tile's loops press
-//!   on each other through their contacts. Warp pulls disagree both ways (garter 7× softer,
-//!   rib 640× stiffer at 30 %: the rib's zigzag unfolds before the clamp force vanishes, at
-//!   61.1 mm against 41.6 mm in seed 000's layout).
+//!   on each other through their contacts (stated, not tested). Warp pulls disagree both
+//!   ways: garter 7× softer, rib 640× stiffer at 30 %. Clamped, the rib pushes on the clamps
+//!   (its legs are bent, and seed 000's bending is at rest straight), so the zero-force
+//!   start lengthens it to 61.1 mm against 41.6 mm in seed 000's layout: the added yarn is
+//!   spent before the pull begins (tested on the quick swatch: 1.43×).
 //!   Two of the six tile's-loop runs cannot start: the static solve fails while the clamp
 //!   moves to zero force (key numbers "has no curve").
 //! - *Plain weave: the persistent swatch is 66× stiffer at 10 %* and does not contract: its
