@@ -34,6 +34,11 @@
 //!   Newton shift carried from step to step (`NewtonSettings::warm_start_regularization`:
 //!   where the step's Hessian is indefinite, as in the dressed sweater, the escalation of
 //!   the diagonal shift starts one factor below the last step's instead of from 1e-8);
+//! - `linear-ic-lag-3-carry`: `linear-ic-lag-3-warm` whose steps start at the carried shift
+//!   between probes every 10 steps (`NewtonSettings::carried_shift_probe_interval`): faster
+//!   where the needed shift stays put, as on the sweater, but not a default, because where it
+//!   varies the steps take far larger shifts than needed and lose accuracy (measured in
+//!   [`StepSettings::linearized_implicit_euler`]'s documentation);
 //! - `linear-ic-lag-3`, `linear-ic-lag-2`: `linear-ic-lag` with a CG tolerance of 1e-3 and
 //!   1e-2 (the linearization itself leaves ≈ 10–15 % of the step's initial residual, see the
 //!   `res/res0` column, and it is the same at all three tolerances).
@@ -51,7 +56,9 @@
 
 use sim_persistent::chart::Chart;
 use sim_persistent::forces::ForceSet;
-use sim_persistent::integrator::{Simulator, StepReport, StepSettings};
+use sim_persistent::integrator::{
+    CARRIED_SHIFT_PROBE_INTERVAL, Simulator, StepReport, StepSettings,
+};
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
 use sim_persistent::topology::{Topology, knit_boundary_nodes};
@@ -73,7 +80,7 @@ struct Config {
 const JACOBI: Preconditioner = Preconditioner::Jacobi;
 const IC0: Preconditioner = Preconditioner::IncompleteCholesky;
 
-const CONFIGS: [Config; 12] = [
+const CONFIGS: [Config; 13] = [
     Config {
         name: "newton-chol",
         linearized: false,
@@ -158,6 +165,13 @@ const CONFIGS: [Config; 12] = [
         damping_refresh_steps: 10,
         warm: true,
     },
+    Config {
+        name: "linear-ic-lag-3-carry",
+        linearized: true,
+        pcg: Some((1e-3, IC0)),
+        damping_refresh_steps: 10,
+        warm: true,
+    },
 ];
 
 impl Config {
@@ -172,6 +186,11 @@ impl Config {
             s = s.linearized_implicit_euler();
         }
         s.newton.warm_start_regularization = self.warm;
+        s.newton.carried_shift_probe_interval = if self.name.ends_with("-carry") {
+            CARRIED_SHIFT_PROBE_INTERVAL
+        } else {
+            0
+        };
         if let Some((tol, preconditioner)) = self.pcg {
             s.newton.linear_solver = LinearSolver::ConjugateGradient(PcgSettings {
                 relative_tolerance: tol,

@@ -70,7 +70,8 @@ use crate::SolveError;
 use crate::assembly::{Assembler, Problem, check_len};
 use crate::linalg::{SparseLlt, symmetric_quadratic_form};
 use crate::newton::{
-    LinearSolver, NewtonReport, NewtonSettings, NewtonSystem, SystemFailure, inf_norm, run_newton,
+    InitialShift, LinearSolver, NewtonReport, NewtonSettings, NewtonSystem, SystemFailure,
+    inf_norm, run_newton,
 };
 use crate::pattern::build_pattern;
 
@@ -683,7 +684,10 @@ impl ConstrainedNewtonSolver {
             &mut self.assembler,
             &mut self.system,
             v0,
-            0.0,
+            InitialShift {
+                value: 0.0,
+                start_at_value: false,
+            },
         )
     }
 

@@ -430,3 +430,55 @@ fn warm_started_regularization_skips_the_escalation() {
         }
     }
 }
+
+/// `carried_shift_probe_interval`: where every run needs the same shift (one-iteration runs
+/// from the same point of the double well's concave region), the runs between probes start
+/// at the carried shift and make one linear solve instead of the warm start's failing
+/// unshifted and lower attempts; every third run probes from `μ = 0` like the warm start;
+/// every run takes the warm start's step.
+#[test]
+fn a_carried_shift_skips_the_failing_solves() {
+    let n = 12;
+    let problem = DoubleWell::new(n, 0.1);
+    let x0: Vec<f64> = (0..n).map(|i| 0.1 * (i as f64).sin()).collect();
+    let warm = NewtonSettings {
+        project_spd: false,
+        max_iterations: 1,
+        line_search: false,
+        accept_iteration_limit: true,
+        warm_start_regularization: true,
+        ..Default::default()
+    };
+    let carry = NewtonSettings {
+        carried_shift_probe_interval: 3,
+        ..warm.clone()
+    };
+    let runs = |settings: &NewtonSettings| {
+        let mut solver = NewtonSolver::new(&problem, &vec![false; n]).unwrap();
+        (0..7)
+            .map(|_| {
+                let mut x = x0.clone();
+                let report = solver.minimize(&problem, &mut x, settings).unwrap();
+                (x, report.linear_solves)
+            })
+            .collect::<Vec<_>>()
+    };
+    let (w, c) = (runs(&warm), runs(&carry));
+    let solves = |r: &[(Vec<f64>, usize)]| r.iter().map(|r| r.1).collect::<Vec<_>>();
+    eprintln!(
+        "linear solves per run: warm {:?}, carried {:?}",
+        solves(&w),
+        solves(&c)
+    );
+    for k in 0..7 {
+        if k % 3 == 0 {
+            assert_eq!(c[k].1, w[k].1, "run {k} probes like the warm start");
+        } else {
+            assert_eq!(c[k].1, 1, "run {k} starts at the carried shift");
+            assert!(w[k].1 > 1, "run {k}: the warm start fails first");
+        }
+        for (a, b) in w[k].0.iter().zip(&c[k].0) {
+            assert!((a - b).abs() <= 1e-12, "run {k}: steps differ: {a} vs {b}");
+        }
+    }
+}

@@ -63,7 +63,7 @@
 mod settings;
 mod step;
 
-pub use settings::{SimError, StepReport, StepSettings};
+pub use settings::{CARRIED_SHIFT_PROBE_INTERVAL, SimError, StepReport, StepSettings};
 
 use crate::forces::compression::{CompressionEstimator, NodeCompression};
 use crate::forces::friction::{AnchoredSpring, ParallelSpring};

@@ -110,8 +110,21 @@ struct NewtonRun<'a, P: Problem + ?Sized, S: NewtonSystem> {
     residual0: Option<f64>,
     /// Shift that worked in the previous iteration; the next escalation starts near it.
     last_mu: f64,
+    /// The first iteration starts its escalation at `last_mu` itself, without the unshifted
+    /// attempt and the one below it ([`NewtonSettings::carried_shift_probe_interval`]).
+    start_at_last_mu: bool,
     /// Termination at the iteration limit.
     limit: Termination,
+}
+
+/// The diagonal shift a run starts from ([`NewtonSettings::warm_start_regularization`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct InitialShift {
+    /// The shift carried in (0: none).
+    pub value: f64,
+    /// Start the first escalation at `value` itself
+    /// ([`NewtonSettings::carried_shift_probe_interval`]).
+    pub start_at_value: bool,
 }
 
 /// The Newton loop shared by [`super::NewtonSolver`] and [`crate::ConstrainedNewtonSolver`].
@@ -122,7 +135,7 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
     asm: &mut Assembler,
     system: &mut S,
     initial_constraint_violation: f64,
-    initial_shift: f64,
+    initial_shift: InitialShift,
 ) -> Result<NewtonReport, SolveError> {
     let mut run = NewtonRun {
         problem,
@@ -133,7 +146,8 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
         x_trial: vec![0.0; x.len()],
         report: empty_report(initial_constraint_violation),
         residual0: None,
-        last_mu: initial_shift,
+        last_mu: initial_shift.value,
+        start_at_last_mu: initial_shift.start_at_value && initial_shift.value > 0.0,
         limit: if settings.accept_iteration_limit {
             Termination::IterationLimit
         } else {
@@ -264,13 +278,20 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
     ) -> Result<Iteration, SolveError> {
         let settings = self.settings;
         let scale = self.asm.diagonal_scale();
-        let base = (settings.regularization_initial * scale)
-            .max(self.last_mu / settings.regularization_growth);
+        let (first, base) = if std::mem::take(&mut self.start_at_last_mu) {
+            (1, self.last_mu)
+        } else {
+            (
+                0,
+                (settings.regularization_initial * scale)
+                    .max(self.last_mu / settings.regularization_growth),
+            )
+        };
         let mut failure = (
             Termination::FactorizationFailed,
             String::from("no attempt made"),
         );
-        for attempt in 0..=settings.max_regularization_attempts {
+        for attempt in first..=settings.max_regularization_attempts {
             let mu = match attempt {
                 0 => 0.0,
                 k => base * settings.regularization_growth.powi(k as i32 - 1),

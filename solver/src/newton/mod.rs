@@ -79,7 +79,7 @@ use crate::pcg::PcgSettings;
 mod driver;
 mod free_dofs;
 
-pub(crate) use driver::{NewtonSystem, SystemFailure, inf_norm, run_newton};
+pub(crate) use driver::{InitialShift, NewtonSystem, SystemFailure, inf_norm, run_newton};
 use free_dofs::FreeDofSystem;
 
 /// How the Newton system `(H_ff + μ I) Δx_f = −g_f` is solved.
@@ -135,6 +135,15 @@ pub struct NewtonSettings {
     /// [`NewtonSolver`] only: start the regularization of a run from the shift the previous
     /// run of the same solver ended with (module documentation). Default `false`.
     pub warm_start_regularization: bool,
+    /// With [`NewtonSettings::warm_start_regularization`]: a run that carries a shift starts
+    /// its first iteration at that shift itself, without the unshifted attempt and the one a
+    /// factor below, except every `n`-th run of the solver (`n` this interval), which probes
+    /// from `μ = 0` as usual so that the shift can fall. Where a simulation needs the same
+    /// shift step after step, this saves the two failing solves of every step, and the steps
+    /// are identical to [`NewtonSettings::warm_start_regularization`]'s alone; where a
+    /// smaller shift would do, the steps between probes take the larger one (shorter, more
+    /// strongly damped steps). `0` (the default): every run probes.
+    pub carried_shift_probe_interval: usize,
     /// Backtracking line search (Armijo). With `false`, every step is taken at
     /// `α = min(1, α_max)` without evaluating the energy along it. Default `true`.
     pub line_search: bool,
@@ -161,6 +170,7 @@ impl Default for NewtonSettings {
             constraint_tol: 1e-12,
             linear_solver: LinearSolver::Cholesky,
             warm_start_regularization: false,
+            carried_shift_probe_interval: 0,
             line_search: true,
             accept_iteration_limit: false,
         }
@@ -303,6 +313,8 @@ pub struct NewtonSolver {
     system: FreeDofSystem,
     /// The shift the last run ended with ([`NewtonSettings::warm_start_regularization`]).
     last_shift: f64,
+    /// Runs so far ([`NewtonSettings::carried_shift_probe_interval`]).
+    runs: usize,
 }
 
 impl NewtonSolver {
@@ -315,6 +327,7 @@ impl NewtonSolver {
             assembler,
             system,
             last_shift: 0.0,
+            runs: 0,
         })
     }
 
@@ -335,6 +348,11 @@ impl NewtonSolver {
         } else {
             0.0
         };
+        let interval = settings.carried_shift_probe_interval;
+        let at_carried = settings.warm_start_regularization
+            && interval > 0
+            && !self.runs.is_multiple_of(interval);
+        self.runs += 1;
         let result = run_newton(
             problem,
             x,
@@ -342,7 +360,10 @@ impl NewtonSolver {
             &mut self.assembler,
             &mut self.system,
             0.0,
-            start,
+            InitialShift {
+                value: start,
+                start_at_value: at_carried,
+            },
         );
         if let Ok(report) = &result {
             self.last_shift = report.regularizations.last().copied().unwrap_or(start);
