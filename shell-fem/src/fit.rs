@@ -100,13 +100,20 @@ pub const MAX_RATE: f64 = 50.0;
 /// present whatever the data (the paper's model may fit `kn2 = 0`).
 pub const STIFFENING_MIN_KN2: f64 = 0.1;
 
+/// The swatch of `direction`: its own in `direction_swatches`, else `common`.
+fn swatch_of<'a>(
+    common: &'a SwatchConfig,
+    direction_swatches: &'a BTreeMap<Direction, SwatchConfig>,
+    direction: Direction,
+) -> &'a SwatchConfig {
+    direction_swatches.get(&direction).unwrap_or(common)
+}
+
 impl FitConfig {
     /// The swatch of `direction`'s tests: its own ([`FitConfig::direction_swatches`]) or the
     /// common one.
     pub fn swatch_for(&self, direction: Direction) -> &SwatchConfig {
-        self.direction_swatches
-            .get(&direction)
-            .unwrap_or(&self.swatch)
+        swatch_of(&self.swatch, &self.direction_swatches, direction)
     }
 
     /// The default settings for `model` (bounds adapted to it).
@@ -379,14 +386,17 @@ impl Simulator {
         model: Model,
         targets: &[Target],
     ) -> Result<Self, ShellError> {
-        let swatch_for = |d: Direction| direction_swatches.get(&d).unwrap_or(swatch);
+        let swatch_for = |d: Direction| swatch_of(swatch, direction_swatches, d);
         let widths = Direction::ALL.map(|d| swatch_for(d).width);
         if let Some((d, w)) =
             (Direction::ALL.iter().zip(widths)).find(|(_, w)| !(*w > 0.0 && w.is_finite()))
         {
+            let which = match direction_swatches.contains_key(d) {
+                true => format!("the {} swatch", d.name()),
+                false => "the common swatch".to_string(),
+            };
             return Err(ShellError::InvalidInput(format!(
-                "swatch width must be positive, got {w} ({} swatch)",
-                d.name()
+                "swatch width must be positive, got {w} ({which})"
             )));
         }
         let mut dirs = Vec::new();

@@ -271,9 +271,9 @@ fn data_without_contraction_still_fits_the_forces() {
 
 /// Strips cut to a different size per direction (`FitConfig::direction_swatches`): virtual
 /// data from a 100 × 60 mm weft strip and a 40 × 90 mm warp strip is fitted back within 1 %
-/// on those swatches (force error 2e-11); fitted with the weft strip for both, both
-/// directions are missed by 18 % (the clamps hold a short, wide strip's width over much
-/// more of it).
+/// on those swatches (force error 2e-11); fitted with the weft strip for both, each
+/// direction is missed by more than 10 % (18 % measured: the clamps hold a short, wide
+/// strip's width over much more of it).
 #[test]
 fn per_direction_swatches_are_fitted_on_their_own_strips() {
     let truth = InPlaneParams::example();
@@ -317,5 +317,7 @@ fn per_direction_swatches_are_fitted_on_their_own_strips() {
     cfg.direction_swatches.clear();
     let one = fit(&targets, initial, &cfg, None).unwrap();
     println!("own strips: {:?}\none strip: {:?}", own.errors, one.errors);
-    assert!(one.errors.force_rel_error > 10.0 * own.errors.force_rel_error.max(1e-4));
+    for d in &one.errors.directions {
+        assert!(d.force_rel_error > 0.1, "{d:?}");
+    }
 }

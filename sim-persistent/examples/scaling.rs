@@ -35,7 +35,8 @@
 //!   where the step's Hessian is indefinite, as in the dressed sweater, the escalation of
 //!   the diagonal shift starts one factor below the last step's instead of from 1e-8);
 //! - `linear-ic-lag-3-carry`: `linear-ic-lag-3-warm` whose steps start at the carried shift
-//!   between probes every 10 steps (`NewtonSettings::carried_shift_probe_interval`): faster
+//!   between probes every 10th Newton run, here every 10th step
+//!   (`NewtonSettings::carried_shift_probe_interval`): faster
 //!   where the needed shift stays put, as on the sweater, but not a default, because where it
 //!   varies the steps take far larger shifts than needed and lose accuracy (measured in
 //!   [`StepSettings::linearized_implicit_euler`]'s documentation);

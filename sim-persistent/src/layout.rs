@@ -92,13 +92,15 @@ impl LayoutParams {
     /// much yarn a stitch takes is a property of the fabric (its *stitch length*, which
     /// knitters measure, and which a relaxed periodic tile has), while this layout's
     /// straight segments between the stitch-contact nodes hold whatever the loop width, row
-    /// height and offset give them. The yarn per loop grows monotonically with `δ` (every
-    /// segment's out-of-plane extent is a fixed multiple of it), so `δ` is found by bisection
-    /// on `(0, w]`, to a relative 1e-12.
+    /// height and offset give them. In a flat knit the yarn per loop grows monotonically with
+    /// `δ` (every segment's out-of-plane extent is a fixed multiple of it), so `δ` is found by
+    /// bisection on `(0, w]`, to a relative 1e-12.
     ///
-    /// Errors: a weave (its crossings lie in one plane), a length that is not finite and
-    /// positive, or one the layout cannot reach: below the flat layout's (`δ → 0`; a smaller
-    /// loop width or row height is needed) or above the layout's at `δ = w`.
+    /// Errors: a weave (its crossings lie in one plane), a knit in the round (its nodes lie at
+    /// the tube's radius ± `δ`, so a segment between two inner nodes shortens as `δ` grows),
+    /// a length that is not finite and positive, or one the layout cannot reach: below the
+    /// flat layout's (`δ → 0`; a smaller loop width or row height is needed) or above the
+    /// layout's at `δ = w`.
     pub fn with_loop_length(
         mut self,
         topology: &Topology,
@@ -108,6 +110,17 @@ impl LayoutParams {
         if !matches!(topology.kind, FabricKind::Knit(_)) {
             return Err(LayoutError::InvalidParams(
                 "a loop length needs a knit: a weave's layout lies in one plane".into(),
+            ));
+        }
+        if topology
+            .knit
+            .as_ref()
+            .is_some_and(|map| map.construction == Construction::Round)
+        {
+            return Err(LayoutError::InvalidParams(
+                "a loop length needs a knit laid out flat: in the round, the yarn per loop \
+                 does not grow monotonically with the out-of-plane offset"
+                    .into(),
             ));
         }
         if !(loop_length.is_finite() && loop_length > 0.0) {

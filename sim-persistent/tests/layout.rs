@@ -92,6 +92,11 @@ fn unreachable_loop_lengths_and_weaves_are_errors() {
     .unwrap();
     let e = base.with_loop_length(&weave, flat).unwrap_err().to_string();
     assert!(e.contains("weave"), "{e}");
+    let round = Fabric::Knit(Chart::stockinette(8, 4).unwrap(), Construction::Round)
+        .topology()
+        .unwrap();
+    let e = base.with_loop_length(&round, flat).unwrap_err().to_string();
+    assert!(e.contains("laid out flat"), "{e}");
 }
 
 const SCENE: &str = r#"dt = 1e-3
@@ -142,4 +147,12 @@ fn scene_keys_set_row_height_and_loop_length() {
         e.contains("[yarn] loop_length") && e.contains("reach"),
         "{e}"
     );
+    // A weave has no row height.
+    let weave = Scene::parse(
+        "steps = 1\n[pattern]\nbuilder = \"plain\"\nwarps = 4\nwefts = 4\n[yarn]\nrow_height = 4e-3\n",
+        Path::new("layout.toml"),
+    )
+    .unwrap();
+    let e = weave.build().err().unwrap().to_string();
+    assert!(e.contains("[yarn] row_height is for knits"), "{e}");
 }

@@ -453,6 +453,12 @@ fn a_carried_shift_skips_the_failing_solves() {
         carried_shift_probe_interval: 3,
         ..warm.clone()
     };
+    // Without the warm start there is nothing to carry: an error, not a silent no-op.
+    let lone = NewtonSettings {
+        warm_start_regularization: false,
+        ..carry.clone()
+    };
+    assert!(lone.validate().is_err());
     let runs = |settings: &NewtonSettings| {
         let mut solver = NewtonSolver::new(&problem, &vec![false; n]).unwrap();
         (0..7)

@@ -65,8 +65,8 @@ fn with_the_tiles_yarn_the_persistent_knit_loses_its_stiffness() {
     );
 }
 
-/// The 1×1 rib pulled in warp in the tile's-loop layout is far stiffer than the tile, not
-/// softer like the weft pulls: clamped, it pushes on the clamps (seed 000's bending is at
+/// Why the 1×1 rib pulled in warp in the tile's-loop layout is far stiffer than the tile
+/// (in `cross-method`; this test checks the lengthening, not the stiffness): clamped, it pushes on the clamps (seed 000's bending is at
 /// rest straight, and the deep zigzag of the tile's loop bends its legs), so the zero-force
 /// start lengthens it, here to 1.43× seed 000's zero-force length (1.47× in the full
 /// `cross-method`): the added yarn is spent before the pull begins.

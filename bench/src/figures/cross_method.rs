@@ -43,8 +43,10 @@
 //!   yarn's stiff stretch regime. Friction, the stitch-length energy and wrapping change it
 //!   by 14 % at most (measured once).
 //! - *The same knits with the tile's yarn per loop* (offset 1.33–1.73 R) *are softer than the
-//!   tile* in weft: stockinette 47× at 30 %, rib 78×. So the yarn length was the cause of
-//!   the stiffness (tested: 600× softer at 20 % on the quick swatch), and what remains is the
+//!   tile* in weft: stockinette 47× at 30 %, rib 78×; garter weft is 4× softer at 10 % and
+//!   within 1.35× at 30 %. So the yarn length was the cause of
+//!   the stiffness (tested on the quick swatch: more than 10× softer at 20 %, measured
+//!   610×), and what remains is the
 //!   model: the persistent swatch stores the extra yarn in its out-of-plane zigzag, which
 //!   the pull flattens against node bending and friction alone, while the tile's loops press
 //!   on each other through their contacts (stated, not tested). Warp pulls disagree both
@@ -52,8 +54,8 @@
 //!   (its legs are bent, and seed 000's bending is at rest straight), so the zero-force
 //!   start lengthens it to 61.1 mm against 41.6 mm in seed 000's layout: the added yarn is
 //!   spent before the pull begins (tested on the quick swatch: 1.43×).
-//!   Two of the six tile's-loop runs cannot start: the static solve fails while the clamp
-//!   moves to zero force (key numbers "has no curve").
+//!   One of the six tile's-loop runs cannot start (stockinette warp): the static solve
+//!   fails while the clamp moves to zero force (key number "has no curve").
 //! - *Plain weave: the persistent swatch is 66× stiffer at 10 %* and does not contract: its
 //!   yarns run straight between persistent crossings, so `σ = ψ'(s)/d` from the first strain
 //!   (tested to 0.1 %), while the tile's crimp interchange takes the first 20 % of stretch. A
@@ -199,8 +201,8 @@ pub fn persistent_fabric(
     if layout == PersistentLayout::TileLoop && pattern.is_knit() {
         // The yarn per loop of a swatch counts its edges, which hold less (the bind-off lies
         // in the plane, the rows end): solved on a 4 × 4 swatch the offset is 15 % larger than
-        // on a 40 × 40 one, and 1.5 % between 20 × 20 and 40 × 40 (stockinette). The tile is
-        // an interior loop, so the offset is solved on the large swatch.
+        // on a 40 × 40 one, and 1.5 % between 20 × 20 and 40 × 40 (stockinette, measured
+        // once). The tile is an interior loop, so the offset is solved on the large swatch.
         params = params
             .with_loop_length(
                 &fabric(LOOP_LENGTH_SWATCH)?.topology()?,

@@ -277,7 +277,7 @@ impl UniaxialTest {
         let force_at = |sim: &Simulator| -sim.force_on_nodes(&pulled).dot(&axis);
         if self.zero_force_start {
             let probe = 0.5 * self.max_stretch * length / self.steps as f64;
-            first.iterations += zero_force(&mut sim, &pulled, axis, probe, force_at)
+            first.iterations += zero_force(&mut sim, &pulled, axis, (probe, length), force_at)
                 .context("moving the clamp to zero force")?;
         }
         let length = if self.zero_force_start {
@@ -362,19 +362,23 @@ impl UniaxialTest {
 /// in tension) vanishes ([`UniaxialTest::zero_force_start`]): steps of `step` against the
 /// force (out under compression, in under tension), each a static solve and halved up to
 /// [`MAX_HALVINGS`] times where the solve fails, until the force changes sign; then one move
-/// back to the zero of the straight line through the last two forces, and a last solve.
-/// With friction the force depends on the path (the yarns slip between solves), so the
-/// search only ever reverses once, like a test machine backing off its overshoot; the force
-/// that remains is the curve's first sample. Returns the Newton iterations; an error if the
-/// force keeps its sign for [`ZERO_FORCE_MAX_SOLVES`] solves.
+/// back to the zero of the straight line through the last two forces, and a last solve (if
+/// that solve fails, the clamp returns to the overshoot, whose equilibrium is kept). With
+/// friction the force depends on the path (the yarns slip between solves), so the search
+/// only ever reverses once, like a test machine backing off its overshoot; the force that
+/// remains is the curve's first sample. Returns the Newton iterations. Errors: the force
+/// keeps its sign for [`ZERO_FORCE_MAX_SOLVES`] solves (failed ones included), the clamps
+/// would come closer than a tenth of their settled distance `length`, a solve still fails
+/// after its halvings, or the force is not finite.
 fn zero_force(
     sim: &mut Simulator,
     pulled: &[usize],
     axis: V3,
-    step: f64,
+    (step, length): (f64, f64),
     force: impl Fn(&Simulator) -> f64,
 ) -> anyhow::Result<usize> {
     let f0 = force(sim);
+    anyhow::ensure!(f0.is_finite(), "the settled clamp force is {f0}");
     if f0 == 0.0 {
         return Ok(0);
     }
@@ -385,21 +389,32 @@ fn zero_force(
     loop {
         anyhow::ensure!(
             solves < ZERO_FORCE_MAX_SOLVES,
-            "the clamp force keeps its sign over {ZERO_FORCE_MAX_SOLVES} static solves \
-             ({f0:.4e} N at the settled length, {f:.4e} N after moving the clamp {at:.4e} m)"
+            "the clamp force keeps its sign over {ZERO_FORCE_MAX_SOLVES} static solves, failed \
+             ones included ({f0:.4e} N at the settled length, {f:.4e} N after moving the clamp \
+             {at:.4e} m)"
+        );
+        let d = direction * part;
+        anyhow::ensure!(
+            length + at + d > 0.1 * length,
+            "the clamps would come within a tenth of their settled distance ({length:.4e} m) \
+             without the clamp force changing sign ({f:.4e} N)"
         );
         solves += 1;
-        let d = direction * part;
         sim.displace_pinned_nodes(pulled, axis * d)?;
         match sim.solve_static() {
             Ok(report) => {
                 iterations += report.iterations;
                 let next = force(sim);
+                anyhow::ensure!(next.is_finite(), "the clamp force became {next}");
                 if next.signum() != f.signum() {
                     // Back to the zero of the line through (at, f) and (at + d, next).
                     let back = d * next / (next - f);
                     sim.displace_pinned_nodes(pulled, -axis * back)?;
-                    iterations += sim.solve_static()?.iterations;
+                    match sim.solve_static() {
+                        Ok(report) => iterations += report.iterations,
+                        // A failed solve leaves the overshoot's equilibrium: keep it.
+                        Err(_) => sim.displace_pinned_nodes(pulled, axis * back)?,
+                    }
                     return Ok(iterations);
                 }
                 (at, f) = (at + d, next);

@@ -119,15 +119,16 @@ impl StepSettings {
     /// step ([`NewtonSettings::warm_start_regularization`]): with one iteration per step the
     /// escalation would otherwise restart from 1e-8 every step (measured on the dressed
     /// 1 M-DoF sweater of `examples/scaling.rs`: 7 solves per step, 3–4 with the warm start,
-    /// 7.2 → 4.1 s per step, the same residual after the step; the steps differ from cold
+    /// 7.2 → 4.1 s per step over 3 steps without a β refresh, the same residual after the step; the steps differ from cold
     /// ones only where the needed shift falls by more than the growth factor between steps).
     ///
     /// Starting every step at the carried shift itself between probes
-    /// ([`NewtonSettings::carried_shift_probe_interval`], [`CARRIED_SHIFT_PROBE_INTERVAL`]
-    /// steps apart) is faster where the needed shift stays put, but it is not the default,
+    /// ([`NewtonSettings::carried_shift_probe_interval`], e.g. every
+    /// [`CARRIED_SHIFT_PROBE_INTERVAL`]-th Newton run, which is every 10th step where no step
+    /// is halved) is faster where the needed shift stays put, but it is not the default,
     /// because where the shift varies it takes far larger shifts than needed (measured: on
-    /// the 1 M-DoF sweater 4.9 → 3.4 s per step averaged over 10 steps, the same residual
-    /// after the step; on the hat of `persistent-time-vs-error`'s garment study the RMS node
+    /// the 1 M-DoF sweater 4.9 → 3.4 s per step over 10 steps with one β refresh, the same
+    /// residual after the step; on the hat of `persistent-time-vs-error`'s garment study the RMS node
     /// error after 0.05 s rose from 0.83 / 1.25 / 3.33 R to 3.13 / 9.08 / 4.54 R at
     /// dt = 0.5 / 1 / 2 ms).
     pub fn linearized_implicit_euler(mut self) -> Self {

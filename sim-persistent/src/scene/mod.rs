@@ -469,16 +469,19 @@ impl Scene {
         let (params, loop_width, ..) = self.yarn()?;
         let mut layout = LayoutParams::new(loop_width, params.radius);
         if let Some(h) = self.yarn.row_height {
+            if topology.knit.is_none() {
+                return Err(SceneError::Invalid(
+                    "[yarn] row_height is for knits: a weave's yarn spacing is loop_width".into(),
+                ));
+            }
             layout.row_height = h;
         }
+        layout.validate()?;
         match self.yarn.loop_length {
             Some(length) => layout
                 .with_loop_length(topology, length)
                 .map_err(|e| SceneError::Invalid(format!("[yarn] loop_length: {e}"))),
-            None => {
-                layout.validate()?;
-                Ok(layout)
-            }
+            None => Ok(layout),
         }
     }
 

@@ -23,7 +23,8 @@
 //! Zhang (2006, *ACM TOMS* 32(1)): close to the minimum, true energy decreases fall below the
 //! rounding error of the summed energy, and a strict test would reject good Newton steps.
 //!
-//! **Regularization.** Every iteration first tries `μ = 0`. If the sparse Cholesky
+//! **Regularization.** Every iteration first tries `μ = 0` (except the first iteration of a
+//! run that starts at a carried shift, below). If the sparse Cholesky
 //! factorization fails (the Hessian is not positive definite: no projection, or a
 //! PSD-but-singular projected Hessian), the solve is non-finite, or the line search fails, the
 //! iteration is retried with `μ = b, b γ, b γ², …`, up to `max_regularization_attempts` times;
@@ -34,7 +35,10 @@
 //! 2006, §3.1). With [`NewtonSettings::warm_start_regularization`], a [`NewtonSolver`] also
 //! carries `μ_prev` from the end of one [`NewtonSolver::minimize`] to the first iteration of
 //! the next (the next time step of a simulation through the same indefinite region), instead
-//! of escalating from `μ₀ s` again; `μ = 0` is still tried first. The accepted shift then
+//! of escalating from `μ₀ s` again; `μ = 0` is still tried first, unless
+//! [`NewtonSettings::carried_shift_probe_interval`] is set: then a run that carries a shift
+//! starts at that shift itself, and only every `n`-th run (every `n`-th
+//! [`NewtonSolver::minimize`] call, failed ones included) probes from `μ = 0`. The accepted shift then
 //! matches a cold start's up to the scale `s` of the new Hessian whenever the needed shift
 //! has not fallen by more than `γ` since the last run; where it has, the warm run takes a
 //! more strongly shifted (shorter) step. Shifting the diagonal is the textbook "Hessian modification" (Nocedal & Wright
@@ -137,7 +141,8 @@ pub struct NewtonSettings {
     pub warm_start_regularization: bool,
     /// With [`NewtonSettings::warm_start_regularization`]: a run that carries a shift starts
     /// its first iteration at that shift itself, without the unshifted attempt and the one a
-    /// factor below, except every `n`-th run of the solver (`n` this interval), which probes
+    /// factor below, except every `n`-th run of the solver (`n` this interval; runs are
+    /// [`NewtonSolver::minimize`] calls, failed ones and retries included), which probes
     /// from `μ = 0` as usual so that the shift can fall. Where a simulation needs the same
     /// shift step after step, this saves the two failing solves of every step, and the steps
     /// are identical to [`NewtonSettings::warm_start_regularization`]'s alone; where a
@@ -205,6 +210,9 @@ impl NewtonSettings {
         }
         if let LinearSolver::ConjugateGradient(pcg) = &self.linear_solver {
             pcg.validate()?;
+        }
+        if self.carried_shift_probe_interval > 0 && !self.warm_start_regularization {
+            return bad("carried_shift_probe_interval needs warm_start_regularization");
         }
         Ok(())
     }
