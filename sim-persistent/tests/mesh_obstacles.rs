@@ -409,7 +409,8 @@ fn cube_obj(dz: f64) -> String {
 /// `kind = "mesh"` reads an OBJ relative to the scene file (scaled from mm) or a numbered
 /// sequence with `fps`; the simulator gets one term per node and one per segment and steps.
 /// A missing file, a sequence without `fps`, `fps` on a single mesh, sphere keys on a mesh
-/// and mesh keys on a sphere are errors at the entry's line naming the problem.
+/// and mesh keys on a sphere are errors at the entry's line naming the problem. The parse
+/// reads a mesh file once: the scene builds after the file is gone.
 #[test]
 fn scene_mesh_obstacles() {
     let dir = tmpdir("scene");
@@ -419,8 +420,11 @@ fn scene_mesh_obstacles() {
     }
     let scene_path = dir.join("scene.toml");
     let parse = |body: &str| Scene::parse(&format!("{HEADER}{body}"), &scene_path);
+    std::fs::write(dir.join("once.obj"), cube_obj(0.0)).unwrap();
     let good =
-        parse("[[obstacle]]\nkind = \"mesh\"\nfile = \"cube.obj\"\nscale = 0.001\n").unwrap();
+        parse("[[obstacle]]\nkind = \"mesh\"\nfile = \"once.obj\"\nscale = 0.001\n").unwrap();
+    // The parse read the mesh; building does not read it again.
+    std::fs::remove_file(dir.join("once.obj")).unwrap();
     let mut run = good.build().unwrap();
     let nodes = run.sim.topology().nodes.len();
     let segments = run.sim.topology().segments().count();

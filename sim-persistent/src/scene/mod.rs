@@ -237,6 +237,10 @@ pub struct Scene {
     /// The directory of the scene file (mesh files are relative to it).
     #[serde(skip)]
     pub base: std::path::PathBuf,
+    /// The obstacles of `[[obstacle]]`, built once when the scene is parsed (so a mesh file
+    /// is read once, and [`Scene::build`] uses what the parse checked).
+    #[serde(skip)]
+    obstacles: Vec<crate::forces::obstacle::Obstacle>,
 }
 
 /// `[uniaxial]`: the virtual swatch test ([`crate::experiment::uniaxial`]).
@@ -338,11 +342,12 @@ impl Scene {
                 message,
             }
         };
-        for o in &scene.obstacle {
-            if let Err(message) = o.get_ref().obstacle(&scene.base) {
-                return Err(located(o.span(), message));
-            }
-        }
+        let obstacles = (scene.obstacle.iter())
+            .map(|o| {
+                (o.get_ref().obstacle(&scene.base)).map_err(|message| located(o.span(), message))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        scene.obstacles = obstacles;
         let grid = Grid::from(&scene.fabric()?);
         for c in &scene.clamp {
             if let Err(message) = c.get_ref().clamp_nodes(grid) {
@@ -575,16 +580,7 @@ impl Scene {
             ..StepSettings::default()
         };
         let mut sim = Simulator::new(topology, &layout, params, forces, settings)?;
-        let obstacles = self
-            .obstacle
-            .iter()
-            .map(|o| {
-                o.get_ref()
-                    .obstacle(&self.base)
-                    .map_err(SceneError::Invalid)
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        sim.add_obstacles(&obstacles)?;
+        sim.add_obstacles(&self.obstacles)?;
         let sticky = StickyObstacles {
             obstacles: (self.obstacle.iter().enumerate())
                 .filter(|(_, spec)| spec.get_ref().sticky)
