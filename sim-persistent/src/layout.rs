@@ -84,9 +84,7 @@ impl LayoutParams {
         }
         Ok(())
     }
-}
 
-impl LayoutParams {
     /// These parameters with the out-of-plane offset `δ` at which the layout of the knit
     /// `topology` holds `loop_length` metres of yarn per loop ([`Layout::yarn_per_loop`]): how
     /// much yarn a stitch takes is a property of the fabric (its *stitch length*, which

@@ -364,6 +364,22 @@ fn exact_hessian_newton_escapes_a_saddle_along_negative_curvature() {
     assert!(report.iterations <= 20, "{} iterations", report.iterations);
 }
 
+/// The warm-start tests' setup: a 12-D double well, a start in its concave region (every
+/// run from it needs a shift) and one-iteration Newton runs (linearized steps) with the
+/// exact, unprojected Hessian.
+fn concave_one_iteration_runs() -> (usize, DoubleWell, Vec<f64>, NewtonSettings) {
+    let n = 12;
+    let x0 = (0..n).map(|i| 0.1 * (i as f64).sin()).collect();
+    let settings = NewtonSettings {
+        project_spd: false,
+        max_iterations: 1,
+        line_search: false,
+        accept_iteration_limit: true,
+        ..Default::default()
+    };
+    (n, DoubleWell::new(n, 0.1), x0, settings)
+}
+
 /// `warm_start_regularization`: one-iteration runs (linearized steps) from the same point in
 /// the concave region of the double well need the same shift every run. Cold, every run
 /// escalates from `μ₀ s` and makes the same number of linear solves; warm, the runs after the
@@ -371,16 +387,7 @@ fn exact_hessian_newton_escapes_a_saddle_along_negative_curvature() {
 /// the same step as the cold one.
 #[test]
 fn warm_started_regularization_skips_the_escalation() {
-    let n = 12;
-    let problem = DoubleWell::new(n, 0.1);
-    let x0: Vec<f64> = (0..n).map(|i| 0.1 * (i as f64).sin()).collect();
-    let base = NewtonSettings {
-        project_spd: false,
-        max_iterations: 1,
-        line_search: false,
-        accept_iteration_limit: true,
-        ..Default::default()
-    };
+    let (n, problem, x0, base) = concave_one_iteration_runs();
     let mut results = Vec::new();
     for warm in [false, true] {
         let settings = NewtonSettings {
@@ -438,16 +445,10 @@ fn warm_started_regularization_skips_the_escalation() {
 /// every run takes the warm start's step.
 #[test]
 fn a_carried_shift_skips_the_failing_solves() {
-    let n = 12;
-    let problem = DoubleWell::new(n, 0.1);
-    let x0: Vec<f64> = (0..n).map(|i| 0.1 * (i as f64).sin()).collect();
+    let (n, problem, x0, base) = concave_one_iteration_runs();
     let warm = NewtonSettings {
-        project_spd: false,
-        max_iterations: 1,
-        line_search: false,
-        accept_iteration_limit: true,
         warm_start_regularization: true,
-        ..Default::default()
+        ..base
     };
     let carry = NewtonSettings {
         carried_shift_probe_interval: 3,

@@ -2,7 +2,8 @@
 //! guarded in quick mode by `reference_curves.rs`).
 
 use bench::figures::cross_method::{
-    PersistentLayout, persistent_test, rest_tile, yarn, yarn_per_loop,
+    PersistentLayout, persistent_layout, persistent_test, rest_tile, tile_loop_length, yarn,
+    yarn_per_loop,
 };
 use sim_periodic::patterns::Pattern;
 use sim_persistent::experiment::uniaxial::Pull;
@@ -16,9 +17,10 @@ use sim_persistent::experiment::uniaxial::Pull;
 fn the_tiles_loop_layout_holds_the_tiles_yarn_and_seed_000_far_less() {
     for pattern in [Pattern::Stockinette, Pattern::Garter, Pattern::Rib1x1] {
         let tile = rest_tile(pattern).unwrap();
-        let (matched, periodic) =
-            yarn_per_loop(pattern, &tile, PersistentLayout::TileLoop).unwrap();
-        let (seed000, _) = yarn_per_loop(pattern, &tile, PersistentLayout::Seed000).unwrap();
+        let periodic = tile_loop_length(pattern, &tile);
+        let [matched, seed000] = [PersistentLayout::TileLoop, PersistentLayout::Seed000].map(|l| {
+            yarn_per_loop(pattern, &persistent_layout(pattern, &tile, l).unwrap()).unwrap()
+        });
         println!(
             "{}: tile {periodic:.5}, tile's loop layout {matched:.5}, seed 000 layout {seed000:.5}",
             pattern.name()
@@ -46,10 +48,16 @@ fn with_the_tiles_yarn_the_persistent_knit_loses_its_stiffness() {
     let pattern = Pattern::Stockinette;
     let tile = rest_tile(pattern).unwrap();
     let at_20 = |layout| {
-        let run = persistent_test(pattern, Pull::Weft, true, &yarn(), &tile, layout)
-            .unwrap()
-            .run()
-            .unwrap();
+        let run = persistent_test(
+            pattern,
+            Pull::Weft,
+            true,
+            &yarn(),
+            persistent_layout(pattern, &tile, layout).unwrap(),
+        )
+        .unwrap()
+        .run()
+        .unwrap();
         let last = *run.samples.last().unwrap();
         assert!((last.stretch - 0.2).abs() < 1e-9, "{last:?}");
         last.stress
@@ -66,20 +74,27 @@ fn with_the_tiles_yarn_the_persistent_knit_loses_its_stiffness() {
 }
 
 /// Why the 1×1 rib pulled in warp in the tile's-loop layout is far stiffer than the tile
-/// (in `cross-method`; this test checks the lengthening, not the stiffness): clamped, it pushes on the clamps (seed 000's bending is at
-/// rest straight, and the deep zigzag of the tile's loop bends its legs), so the zero-force
-/// start lengthens it, here to 1.43× seed 000's zero-force length (1.47× in the full
-/// `cross-method`): the added yarn is spent before the pull begins.
+/// (in `cross-method`; this test checks the lengthening, not the stiffness): clamped, it
+/// pushes on the clamps (seed 000's bending is at rest straight, and the deep zigzag of the
+/// tile's loop bends its legs), so the zero-force start lengthens it, here to 1.43× seed
+/// 000's zero-force length (1.47× in the full `cross-method`): the added yarn is spent
+/// before the pull begins.
 #[test]
 fn the_tiles_loop_rib_unfolds_before_its_warp_pull() {
     let pattern = Pattern::Rib1x1;
     let tile = rest_tile(pattern).unwrap();
     let length = |layout| {
-        persistent_test(pattern, Pull::Warp, true, &yarn(), &tile, layout)
-            .unwrap()
-            .run()
-            .unwrap()
-            .length
+        persistent_test(
+            pattern,
+            Pull::Warp,
+            true,
+            &yarn(),
+            persistent_layout(pattern, &tile, layout).unwrap(),
+        )
+        .unwrap()
+        .run()
+        .unwrap()
+        .length
     };
     let (seed000, matched) = (
         length(PersistentLayout::Seed000),

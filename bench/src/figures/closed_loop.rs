@@ -25,7 +25,9 @@ use sim_periodic::periodic::YarnModel;
 use sim_persistent::experiment::uniaxial::{Pull, UniaxialRun};
 use yarn_pattern::direction::Direction;
 
-use super::cross_method::{PersistentLayout, at, persistent_test, rest_tile, shell_curves, yarn};
+use super::cross_method::{
+    PersistentLayout, at, persistent_layout, persistent_test, rest_tile, shell_curves, yarn,
+};
 use crate::plot::{LineChart, Series, save_side_by_side};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table, percent};
 
@@ -47,19 +49,12 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let progress = ctx.progress(4, "swatch, shell, yarn fit, re-simulation");
     // The fabric (loop width and row height) is the known yarn's relaxed tile's; the
     // re-simulation changes the yarn only.
-    let tile = rest_tile(pattern)?;
+    let layout = persistent_layout(pattern, &rest_tile(pattern)?, PersistentLayout::Seed000)?;
     let stretch_all = |y: &YarnMaterial| -> anyhow::Result<Vec<UniaxialRun>> {
         [Pull::Weft, Pull::Warp]
             .into_iter()
             .map(|pull| {
-                let mut test = persistent_test(
-                    pattern,
-                    pull,
-                    ctx.quick,
-                    y,
-                    &tile,
-                    PersistentLayout::Seed000,
-                )?;
+                let mut test = persistent_test(pattern, pull, ctx.quick, y, layout)?;
                 // Original and re-simulated swatches start at the same clamp distance (the
                 // layout's), so the loop compares the two yarns on one swatch geometry; a
                 // zero-force start would give each its own length and reference width.

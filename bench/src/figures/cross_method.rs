@@ -171,30 +171,28 @@ pub fn tile_loop_length(pattern: Pattern, tile: &yarn_pattern::tile::Tile) -> f6
     tile.rest_lengths.iter().sum::<f64>() / (wales * courses) as f64
 }
 
-/// The persistent swatch of `pattern` (`n × n` stitches or yarns) and its `layout`, both
-/// from the pattern's relaxed `tile` ([`rest_tile`]): loop width and row height (yarn
-/// spacing of a weave) are the tile's period over its repeat.
-pub fn persistent_fabric(
+/// The persistent swatch of `pattern`: `n × n` stitches or yarns.
+pub fn persistent_swatch(pattern: Pattern, n: usize) -> anyhow::Result<Fabric> {
+    Ok(match pattern {
+        Pattern::Stockinette => Fabric::Knit(Chart::stockinette(n, n)?, Construction::FlatPerRow),
+        Pattern::Garter => Fabric::Knit(Chart::garter(n, n)?, Construction::FlatPerRow),
+        Pattern::Rib1x1 => Fabric::Knit(Chart::rib(n, n, 1, 1)?, Construction::FlatPerRow),
+        Pattern::PlainWeave => Fabric::Weave {
+            pattern: WeavePattern::Plain,
+            warps: n,
+            wefts: n,
+        },
+        other => anyhow::bail!("no persistent swatch for {}", other.name()),
+    })
+}
+
+/// The persistent `layout` of `pattern` from its relaxed `tile` ([`rest_tile`]): loop width
+/// and row height (yarn spacing of a weave) are the tile's period over its repeat.
+pub fn persistent_layout(
     pattern: Pattern,
-    n: usize,
     tile: &yarn_pattern::tile::Tile,
     layout: PersistentLayout,
-) -> anyhow::Result<(Fabric, LayoutParams)> {
-    let fabric = |n: usize| -> anyhow::Result<Fabric> {
-        Ok(match pattern {
-            Pattern::Stockinette => {
-                Fabric::Knit(Chart::stockinette(n, n)?, Construction::FlatPerRow)
-            }
-            Pattern::Garter => Fabric::Knit(Chart::garter(n, n)?, Construction::FlatPerRow),
-            Pattern::Rib1x1 => Fabric::Knit(Chart::rib(n, n, 1, 1)?, Construction::FlatPerRow),
-            Pattern::PlainWeave => Fabric::Weave {
-                pattern: WeavePattern::Plain,
-                warps: n,
-                wefts: n,
-            },
-            other => anyhow::bail!("no persistent swatch for {}", other.name()),
-        })
-    };
+) -> anyhow::Result<LayoutParams> {
     let [wales, courses] = pattern.repeat();
     let mut params = LayoutParams::new(tile.period[0] / wales as f64, tile.radius);
     params.row_height = tile.period[1] / courses as f64;
@@ -205,30 +203,27 @@ pub fn persistent_fabric(
         // once). The tile is an interior loop, so the offset is solved on the large swatch.
         params = params
             .with_loop_length(
-                &fabric(LOOP_LENGTH_SWATCH)?.topology()?,
+                &persistent_swatch(pattern, LOOP_LENGTH_SWATCH)?.topology()?,
                 tile_loop_length(pattern, tile),
             )
             .with_context(|| format!("{} persistent layout of the tile's loop", pattern.name()))?;
     }
-    Ok((fabric(n)?, params))
+    Ok(params)
 }
 
 /// Stitches per side of the swatch on which [`PersistentLayout::TileLoop`]'s offset is
 /// solved.
 pub const LOOP_LENGTH_SWATCH: usize = 40;
 
-/// The persistent uniaxial test of `pattern` with `yarn`, in `layout` from the pattern's
-/// relaxed `tile` ([`persistent_fabric`]).
+/// The persistent uniaxial test of `pattern` with `yarn` in `layout` ([`persistent_layout`]).
 pub fn persistent_test(
     pattern: Pattern,
     pull: Pull,
     quick: bool,
     yarn: &YarnMaterial,
-    tile: &yarn_pattern::tile::Tile,
-    layout: PersistentLayout,
+    layout: LayoutParams,
 ) -> anyhow::Result<UniaxialTest> {
     let (n, max_stretch, steps) = sizes(quick);
-    let (fabric, layout) = persistent_fabric(pattern, n, tile, layout)?;
     let mut params = YarnParams::from_material(yarn).map_err(anyhow::Error::msg)?;
     params.gravity *= 0.0;
     let settings = SwatchSettings {
@@ -236,7 +231,7 @@ pub fn persistent_test(
         ..SwatchSettings::default()
     };
     Ok(UniaxialTest {
-        fabric,
+        fabric: persistent_swatch(pattern, n)?,
         pull,
         max_stretch,
         steps,
@@ -248,20 +243,13 @@ pub fn persistent_test(
 }
 
 /// Yarn per loop (m) of a knit `pattern`'s persistent swatch in `layout`
-/// ([`sim_persistent::layout::Layout::yarn_per_loop`], [`LOOP_LENGTH_SWATCH`] stitches a side) and of its relaxed
-/// `tile` ([`tile_loop_length`]). The more yarn per loop, the later a course pulled in weft
-/// runs taut.
-pub fn yarn_per_loop(
-    pattern: Pattern,
-    tile: &yarn_pattern::tile::Tile,
-    layout: PersistentLayout,
-) -> anyhow::Result<(f64, f64)> {
+/// ([`sim_persistent::layout::Layout::yarn_per_loop`], [`LOOP_LENGTH_SWATCH`] stitches a
+/// side), to compare with its relaxed tile's ([`tile_loop_length`]). The more yarn per loop,
+/// the later a course pulled in weft runs taut.
+pub fn yarn_per_loop(pattern: Pattern, layout: &LayoutParams) -> anyhow::Result<f64> {
     anyhow::ensure!(pattern.is_knit(), "{} is not a knit", pattern.name());
-    let (fabric, params) = persistent_fabric(pattern, LOOP_LENGTH_SWATCH, tile, layout)?;
-    let topology = fabric.topology()?;
-    let persistent =
-        sim_persistent::layout::Layout::new(&topology, &params)?.yarn_per_loop(&topology)?;
-    Ok((persistent, tile_loop_length(pattern, tile)))
+    let topology = persistent_swatch(pattern, LOOP_LENGTH_SWATCH)?.topology()?;
+    Ok(sim_persistent::layout::Layout::new(&topology, layout)?.yarn_per_loop(&topology)?)
 }
 
 /// The procedural tile of `pattern` for the shared yarn, relaxed (rest-shape rounds) and
@@ -454,15 +442,15 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         } else {
             &[PersistentLayout::Seed000]
         };
+        // Each layout once per fabric (the tile's loop is a bisection).
+        let params: Vec<LayoutParams> = layouts
+            .iter()
+            .map(|&l| persistent_layout(pattern, &tile, l))
+            .collect::<anyhow::Result<_>>()?;
         if pattern.is_knit() {
-            let (_, periodic) = yarn_per_loop(pattern, &tile, PersistentLayout::TileLoop)?;
-            let (seed000, _) = yarn_per_loop(pattern, &tile, PersistentLayout::Seed000)?;
-            let (_, params) = persistent_fabric(
-                pattern,
-                sizes(ctx.quick).0,
-                &tile,
-                PersistentLayout::TileLoop,
-            )?;
+            let periodic = tile_loop_length(pattern, &tile);
+            let seed000 = yarn_per_loop(pattern, &params[0])?;
+            let offset = params[1].out_of_plane;
             summary.push((
                 format!("{name} yarn per loop"),
                 format!(
@@ -470,19 +458,19 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                     periodic * 1e3,
                     seed000 * 1e3,
                     periodic / seed000,
-                    params.out_of_plane * 1e3,
-                    params.out_of_plane / tile.radius
+                    offset * 1e3,
+                    offset / tile.radius
                 ),
             ));
         }
         // runs[layout][direction]: the seed 000 layout's must succeed (the shell is fitted to
         // them); a tile's-loop run that cannot start is reported and left out.
         let mut runs: Vec<Vec<Option<UniaxialRun>>> = Vec::new();
-        for &layout in layouts {
+        for (&layout, &params) in layouts.iter().zip(&params) {
             let mut per_layout = Vec::new();
             for pull in [Pull::Weft, Pull::Warp] {
                 let what = format!("{name} {} {}", pull.name(), layout.label());
-                let run = persistent_test(pattern, pull, ctx.quick, &yarn(), &tile, layout)?
+                let run = persistent_test(pattern, pull, ctx.quick, &yarn(), params)?
                     .run_until_failure()
                     .with_context(|| what.clone());
                 let run = match (run, layout) {

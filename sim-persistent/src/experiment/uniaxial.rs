@@ -280,12 +280,12 @@ impl UniaxialTest {
             first.iterations += zero_force(&mut sim, &pulled, axis, (probe, length), force_at)
                 .context("moving the clamp to zero force")?;
         }
-        let length = if self.zero_force_start {
-            let p = positions(&sim);
+        // The clamps move only with the zero-force start; L₀ is measured where the curve starts.
+        let clamp_distance = |sim: &Simulator| {
+            let p = positions(sim);
             (centroid(&p, &pulled) - centroid(&p, &fixed)).norm()
-        } else {
-            length
         };
+        let length = clamp_distance(&sim);
         let w0 = width_at(&sim)?;
         anyhow::ensure!(w0 > 0.0, "the measuring lines coincide after the settle");
         let width = w0 * periods as f64 / (b - a) as f64;
@@ -293,11 +293,9 @@ impl UniaxialTest {
         let per_step = self.max_stretch * length / self.steps as f64;
         let mut samples = Vec::new();
         let mut sample = |sim: &Simulator, newton_iterations: usize| -> anyhow::Result<()> {
-            let p = positions(sim);
-            let l = (centroid(&p, &pulled) - centroid(&p, &fixed)).norm();
             let force = force_at(sim);
             samples.push(UniaxialSample {
-                stretch: l / length - 1.0,
+                stretch: clamp_distance(sim) / length - 1.0,
                 force,
                 stress: force / width,
                 compression: 1.0 - width_at(sim)? / w0,

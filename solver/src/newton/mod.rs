@@ -38,8 +38,8 @@
 //! of escalating from `μ₀ s` again; `μ = 0` is still tried first, unless
 //! [`NewtonSettings::carried_shift_probe_interval`] is set: then a run that carries a shift
 //! starts at that shift itself, and only every `n`-th run (every `n`-th
-//! [`NewtonSolver::minimize`] call, failed ones included) probes from `μ = 0`. The accepted shift then
-//! matches a cold start's up to the scale `s` of the new Hessian whenever the needed shift
+//! [`NewtonSolver::minimize`] call, failed ones included) probes from `μ = 0`. The accepted
+//! shift then matches a cold start's up to the scale `s` of the new Hessian whenever the needed shift
 //! has not fallen by more than `γ` since the last run; where it has, the warm run takes a
 //! more strongly shifted (shorter) step. Shifting the diagonal is the textbook "Hessian modification" (Nocedal & Wright
 //! Alg. 3.3).
@@ -357,9 +357,8 @@ impl NewtonSolver {
             0.0
         };
         let interval = settings.carried_shift_probe_interval;
-        let at_carried = settings.warm_start_regularization
-            && interval > 0
-            && !self.runs.is_multiple_of(interval);
+        // `validate` ensures the warm start whenever the interval is set.
+        let at_carried = interval > 0 && !self.runs.is_multiple_of(interval);
         self.runs += 1;
         let result = run_newton(
             problem,
