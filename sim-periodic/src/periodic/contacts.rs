@@ -123,28 +123,49 @@ impl PeriodicTile<'_> {
             Some(gap)
         };
         let cutoff = model.contact_cutoff() * margin;
+        // Every edge's end points in each of the 3 × 3 images (index 3(i+1) + (j+1)), mapped
+        // once, and their bounding boxes: a pair whose boxes are farther apart than the cutoff
+        // along some axis cannot come within it, so it skips the segment distance.
+        let images: Vec<[i32; 2]> = (-1..=1)
+            .flat_map(|i| (-1..=1).map(move |j| [i, j]))
+            .collect();
+        let ends: Vec<[[Vector3<f64>; 2]; 9]> = (0..n)
+            .map(|e| {
+                let ed = tile.edges[e];
+                std::array::from_fn(|k| {
+                    let [i, j] = images[k];
+                    [
+                        pos(ed.v0, [i, j]),
+                        pos(ed.v1, [ed.shift[0] + i, ed.shift[1] + j]),
+                    ]
+                })
+            })
+            .collect();
+        let apart = |p: &[Vector3<f64>; 2], q: &[Vector3<f64>; 2]| {
+            (0..3).any(|k| {
+                p[0][k].min(p[1][k]) - q[0][k].max(q[1][k]) >= cutoff
+                    || q[0][k].min(q[1][k]) - p[0][k].max(p[1][k]) >= cutoff
+            })
+        };
         let mut pairs = Vec::new();
         for a in 0..n {
-            let ea = tile.edges[a];
-            let (a0, a1) = (pos(ea.v0, [0, 0]), pos(ea.v1, ea.shift));
+            let [a0, a1] = ends[a][4];
             for b in a..n {
-                let eb = tile.edges[b];
-                for i in -1..=1 {
-                    for j in -1..=1 {
-                        let t = [i, j];
-                        if a == b && (t <= [0, 0]) {
-                            continue; // an edge with itself only in half of the images
-                        }
-                        if let Some(gap) = arc_gap(a, b, t)
-                            && gap < model.min_arc_separation
-                        {
-                            continue;
-                        }
-                        let b0 = pos(eb.v0, t);
-                        let b1 = pos(eb.v1, [eb.shift[0] + i, eb.shift[1] + j]);
-                        if closest_points(&a0, &a1, &b0, &b1).2 < cutoff {
-                            pairs.push(ContactPair { a, b, image: t });
-                        }
+                for (k, &t) in images.iter().enumerate() {
+                    if a == b && (t <= [0, 0]) {
+                        continue; // an edge with itself only in half of the images
+                    }
+                    let [b0, b1] = ends[b][k];
+                    if apart(&[a0, a1], &[b0, b1]) {
+                        continue;
+                    }
+                    if let Some(gap) = arc_gap(a, b, t)
+                        && gap < model.min_arc_separation
+                    {
+                        continue;
+                    }
+                    if closest_points(&a0, &a1, &b0, &b1).2 < cutoff {
+                        pairs.push(ContactPair { a, b, image: t });
                     }
                 }
             }
