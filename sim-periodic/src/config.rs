@@ -384,6 +384,8 @@ impl Config {
 /// pattern = "stockinette"       # a procedural pattern's input geometry, or
 /// # tile = "stockinette.pyp"    # a yarn geometry file
 /// radius = 1e-3                 # yarn radius of the procedural pattern (m)
+/// resolution = 16               # its vertices per loop (knits) or per crossing (weaves);
+///                               # default: the pattern's own (24 per loop, 4 per crossing)
 /// out = "fit"                   # output directory (journal, fit.json, fitted-curves.csv)
 ///
 /// [model]                       # the fixed inputs, as for the other commands (k2, k_c2, ...)
@@ -421,6 +423,9 @@ pub struct FitConfig {
     pub pattern: Option<String>,
     /// Yarn radius of the procedural pattern (m). Default 1e-3.
     pub radius: Option<f64>,
+    /// Vertices per stitch loop (knits) or per crossing (weaves) of the procedural pattern.
+    /// Default: [`crate::patterns::Pattern::default_params`]'s.
+    pub resolution: Option<usize>,
     /// Output directory, relative to the config file.
     pub out: PathBuf,
     /// The fixed yarn inputs.

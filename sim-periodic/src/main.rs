@@ -323,6 +323,12 @@ fn fit(path: &Path) -> Result<()> {
     let config = FitConfig::read(path)?;
     let (geometry, radius) = match (&config.tile, &config.pattern) {
         (Some(tile), None) => {
+            if config.resolution.is_some() {
+                bail!(
+                    "{}: `resolution` applies to a procedural `pattern`, not to a `tile` file",
+                    path.display()
+                );
+            }
             let t = read_pyp(tile)?.tile;
             let r = t.radius;
             (t, r)
@@ -339,9 +345,14 @@ fn fit(path: &Path) -> Result<()> {
             if !(r.is_finite() && r > 0.0) {
                 bail!("{}: radius must be positive (m), found {r}", path.display());
             }
-            (pattern.generate(&pattern.default_params(r))?, r)
+            let mut params = pattern.default_params(r);
+            params.resolution = config.resolution.unwrap_or(params.resolution);
+            let tile = pattern
+                .generate(&params)
+                .with_context(|| format!("{}: pattern {name:?}", path.display()))?;
+            (tile, r)
         }
-        _ => bail!(
+        (Some(_), Some(_)) | (None, None) => bail!(
             "{}: give exactly one of `tile` (a .pyp file) and `pattern` (a procedural pattern)",
             path.display()
         ),

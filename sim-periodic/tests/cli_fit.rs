@@ -141,5 +141,12 @@ fn bad_fit_configs_are_refused_with_file_and_problem() {
     );
     let e = run("targets = \"missing.csv\"\nout = \"o\"\npattern = \"garter\"\n");
     assert!(e.contains("missing.csv"), "{e}");
+    let e = run("targets = \"curves.csv\"\nout = \"o\"\npattern = \"garter\"\nresolution = 5\n");
+    assert!(
+        e.contains("c.toml") && e.contains("garter") && e.contains("at least 8"),
+        "{e}"
+    );
+    let e = run("targets = \"curves.csv\"\nout = \"o\"\ntile = \"t.pyp\"\nresolution = 16\n");
+    assert!(e.contains("c.toml") && e.contains("`resolution`"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

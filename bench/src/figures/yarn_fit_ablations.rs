@@ -15,7 +15,9 @@ use sim_periodic::fit::{
 use sim_periodic::periodic::YarnModel;
 use yarn_pattern::direction::Direction;
 
-use super::yarn_fit::{DEVELOPMENT_FABRIC, fabrics, pattern_of, settings, shell_targets};
+use super::yarn_fit::{
+    DEVELOPMENT_FABRIC, fabrics, fit_geometry, pattern_of, settings, shell_targets,
+};
 use crate::plot::{LineChart, Series, save_grid};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
 
@@ -113,7 +115,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         .ok_or_else(|| anyhow::anyhow!("fabric {DEVELOPMENT_FABRIC} not found"))?;
     let targets: Targets = shell_targets(fabric, &opts)?;
     let pattern = pattern_of(&fabric.name)?;
-    let geometry = pattern.generate(&pattern.default_params(1e-3))?;
+    let geometry = fit_geometry(pattern, 1e-3)?;
     let progress = ctx.progress(VARIANTS.len() as u64, "variants");
     let mut data = Table::new(&[
         "variant",
