@@ -255,3 +255,60 @@ fn a_clamped_3x3_copy_has_the_tile_energy_density_and_forces() {
     );
     assert!((density - relaxed) <= 1e-6 * density);
 }
+
+#[test]
+fn the_broad_phase_finds_exactly_the_pairs_of_an_exhaustive_search() {
+    // With no arc separation every image pair within the cutoff is a contact pair, so the
+    // broad phase (mapped image ends, box rejection) must return exactly what testing every
+    // edge against every edge in every image returns, in the same order; on a sheared
+    // equilibrium with fluctuations and under curvature.
+    use nalgebra::Vector3;
+    use rod::contact::closest_points;
+    use sim_periodic::periodic::ContactPair;
+    let tile = stockinette();
+    let mut model = YarnModel::default_for_radius(tile.radius);
+    let coarse = Coarse::from_strain(&Strain {
+        sx: 0.2,
+        sa: 0.1,
+        sy: -0.05,
+    });
+    let eq =
+        solve_equilibrium(&tile, &model, coarse, None, &EquilibriumSettings::default()).unwrap();
+    model.min_arc_separation = 0.0;
+    for (coarse, margin) in [(coarse, 1.5), (coarse.bent(0, 40.0), 2.0)] {
+        let pos = |v: usize, shift: [i32; 2]| {
+            let y = tile.positions[v] + tile.period_offset(shift);
+            let x = &eq.dofs;
+            coarse.map(&y) + coarse.frame(&y) * Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])
+        };
+        let cutoff = model.contact_cutoff() * margin;
+        let n = tile.n_vertices();
+        let mut want = Vec::new();
+        for a in 0..n {
+            let ea = tile.edges[a];
+            let (a0, a1) = (pos(ea.v0, [0, 0]), pos(ea.v1, ea.shift));
+            for b in a..n {
+                let eb = tile.edges[b];
+                for i in -1..=1 {
+                    for j in -1..=1 {
+                        if a == b && [i, j] <= [0, 0] {
+                            continue;
+                        }
+                        let b0 = pos(eb.v0, [i, j]);
+                        let b1 = pos(eb.v1, [eb.shift[0] + i, eb.shift[1] + j]);
+                        if closest_points(&a0, &a1, &b0, &b1).2 < cutoff {
+                            want.push(ContactPair {
+                                a,
+                                b,
+                                image: [i, j],
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        let got = PeriodicTile::find_pairs(&tile, &model, &coarse, &eq.dofs, margin).unwrap();
+        assert!(want.len() > 100, "{} pairs", want.len());
+        assert_eq!(got, want);
+    }
+}
