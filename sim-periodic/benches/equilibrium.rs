@@ -1,8 +1,9 @@
 //! Equilibrium solves per pattern and a small database, in wall time.
 //!
 //! `cargo bench -p sim-periodic`. Each tile is first relaxed (not timed); one iteration solves
-//! it at a 20 % weft stretch from its relaxed state. The database bench generates a 3³ grid
-//! around zero strain for the real stockinette tile.
+//! it at a 20 % weft stretch from its relaxed state. The broad-phase bench finds the contact
+//! pairs of the relaxed procedural seed at that stretch (16 and 24 vertices per loop). The
+//! database bench generates a 3³ grid around zero strain for the real stockinette tile.
 
 #![allow(missing_docs)] // criterion_group! generates undocumented items
 
@@ -10,7 +11,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use sim_periodic::coarse::{Coarse, Strain};
 use sim_periodic::database::{DatabaseSettings, generate, relax_reference, uniform_axis};
 use sim_periodic::patterns::{Pattern, RelaxSettings, relax};
-use sim_periodic::periodic::{EquilibriumSettings, YarnModel, solve_equilibrium};
+use sim_periodic::periodic::{EquilibriumSettings, PeriodicTile, YarnModel, solve_equilibrium};
 use yarn_pattern::tile::Tile;
 
 fn stockinette() -> Tile {
@@ -47,6 +48,31 @@ fn bench(c: &mut Criterion) {
         let id = format!("{name} ({} vertices)", tile.n_vertices());
         group.bench_function(id, |b| {
             b.iter(|| solve_equilibrium(&tile, &model, coarse, None, &settings).expect("converges"))
+        });
+    }
+    group.finish();
+
+    // The contact broad phase at a solved state (every equilibrium solve runs it at least
+    // twice per pair round): the relaxed procedural seed at the yarn fit's 16 vertices per
+    // loop and at the default 24.
+    let mut group = c.benchmark_group("broad phase, sx = 0.2");
+    for resolution in [16, 24] {
+        let mut params = Pattern::Seed.default_params(1e-3);
+        params.resolution = resolution;
+        let model = YarnModel::default_for_radius(1e-3);
+        let guess = Pattern::Seed.generate(&params).expect("pattern generates");
+        let (tile, _) = relax(&guess, &model, &RelaxSettings::default()).expect("relaxes");
+        let coarse = Coarse::from_strain(&Strain {
+            sx: 0.2,
+            sa: 0.0,
+            sy: 0.0,
+        });
+        let eq = solve_equilibrium(&tile, &model, coarse, None, &settings).expect("converges");
+        let id = format!("seed ({} vertices)", tile.n_vertices());
+        group.bench_function(id, |b| {
+            b.iter(|| {
+                PeriodicTile::find_pairs(&tile, &model, &coarse, &eq.dofs, 1.5).expect("pairs")
+            })
         });
     }
     group.finish();

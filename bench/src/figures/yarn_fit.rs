@@ -126,8 +126,10 @@ const RADIUS: f64 = 1e-3;
 
 /// Vertices per stitch loop of the fitted knit tiles (the procedural default is 24).
 ///
-/// Measured on the eight shared fabrics (full settings, release, 2 cores; the closing note of
-/// issue 15 has the table): at 16 the slowest fit (a seed) takes 173 s instead of 291 s, and
+/// Measured on the eight shared fabrics with this figure's targets and settings, one
+/// [`fit`] per fabric at each resolution (release, 2 cores; reproducible with `sim-periodic
+/// fit` and its `resolution` key; the closing note of issue 15 has the table; this figure
+/// times the 16-vertex fits): at 16 the slowest fit (a seed) takes 173 s instead of 291 s, and
 /// the comfort-range error is lower on seven fabrics (mean 24.9 → 20.4 %) and higher on the
 /// babyredo seed (15.0 → 20.4 %). The fitted parameters belong to tiles of this resolution:
 /// with the same yarn model a 24-vertex tile's curves differ by 1–10 % of their largest

@@ -126,9 +126,7 @@ impl PeriodicTile<'_> {
         // Every edge's end points in each of the 3 × 3 images (index 3(i+1) + (j+1)), mapped
         // once, and their bounding boxes: a pair whose boxes are farther apart than the cutoff
         // along some axis cannot come within it, so it skips the segment distance.
-        let images: Vec<[i32; 2]> = (-1..=1)
-            .flat_map(|i| (-1..=1).map(move |j| [i, j]))
-            .collect();
+        let images: [[i32; 2]; 9] = std::array::from_fn(|k| [k as i32 / 3 - 1, k as i32 % 3 - 1]);
         let ends: Vec<[[Vector3<f64>; 2]; 9]> = (0..n)
             .map(|e| {
                 let ed = tile.edges[e];
