@@ -396,6 +396,9 @@ impl Config {
 /// bending = [1e-8, 1e-4]
 /// # k2 = [10.0, 1000.0]         # beyond the paper: free the stiff stretch stiffness too
 ///                               # (explicit bounds only; the paper fixes it)
+/// # geometry_x = [0.8, 1.3]     # beyond the paper: stretch the input geometry along x / y
+/// # geometry_y = [0.8, 1.3]     # before the rest-shape estimation (swarm and COBYLA only;
+///                               # fit.json names the stretched geometry, fitted-geometry.pyp)
 ///
 /// [fit]
 /// rest_shape = true             # estimate the rest shape for every candidate (§7.2)

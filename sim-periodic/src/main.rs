@@ -317,7 +317,8 @@ fn database(path: &Path) -> Result<()> {
 fn fit(path: &Path) -> Result<()> {
     use sim_periodic::config::{BoundConfig, FitConfig};
     use sim_periodic::fit::{
-        Bound, Journal, Parameter, ParameterSpace, Progress, Targets, estimated_radius, fingerprint,
+        Bound, Journal, Parameter, ParameterSpace, Progress, Targets, estimated_radius,
+        fingerprint, stretched_geometry,
     };
     use sim_periodic::patterns::Pattern;
     let config = FitConfig::read(path)?;
@@ -483,9 +484,22 @@ fn fit(path: &Path) -> Result<()> {
         })
         .collect();
     let e = &result.evaluation;
+    // With geometric parameters the model belongs to the stretched input geometry.
+    let fitted_geometry = if result.geometry_stretch != [1.0, 1.0] {
+        let file = config.out.join("fitted-geometry.pyp");
+        write_pyp(
+            &stretched_geometry(&geometry, result.geometry_stretch)?,
+            &file,
+        )?;
+        Some(file.display().to_string())
+    } else {
+        None
+    };
     let summary = json!({
         "parameters": parameters,
         "model": format!("{:?}", result.model),
+        "geometry_stretch": result.geometry_stretch,
+        "fitted_geometry": fitted_geometry,
         "objective": e.value,
         "comfort_error": e.comfort_error,
         "power_error": e.power_error,

@@ -3,8 +3,8 @@
 
 use sim_periodic::curves::CurveSettings;
 use sim_periodic::fit::{
-    FitSettings, Journal, LocalMethod, Objective, ObjectiveSettings, ParameterSpace,
-    estimated_radius, fit,
+    Bound, FitSettings, Journal, LocalMethod, Objective, ObjectiveSettings, Parameter,
+    ParameterSpace, estimated_radius, fit, stretched_geometry,
 };
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel};
 use yarn_pattern::direction::Direction;
@@ -237,4 +237,95 @@ fn the_stiff_stretch_stiffness_can_be_freed() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("k2") && e.contains("two-phase"), "{e}");
+}
+
+#[test]
+fn a_known_geometry_stretch_is_recovered_by_cobyla_and_kept_by_levenberg_marquardt() {
+    // Targets of a known yarn model on the input geometry stretched by 1.1 along y
+    // (beyond the paper: the geometry's proportions as fit parameters).
+    let geometry = geometry();
+    let truth = paper_space(&geometry).model(&[0.62, 0.4, 0.55, 0.45, 0.58]);
+    let (a_min, a_max, a_true) = (0.8, 1.3, 1.1);
+    let nodes = 4;
+    let targets = targets_of(
+        &stretched_geometry(&geometry, [1.0, a_true]).unwrap(),
+        &truth,
+        &[(Direction::Weft, 0.3), (Direction::Warp, 0.2)],
+        nodes,
+    );
+    let bound = |parameter, min, max| Bound {
+        parameter,
+        min,
+        max,
+    };
+    let space =
+        ParameterSpace::new(truth, vec![bound(Parameter::GeometryY, a_min, a_max)]).unwrap();
+    let objective_settings = ObjectiveSettings {
+        samples: nodes,
+        compression_nodes: nodes,
+        ..ObjectiveSettings::default()
+    };
+    let objective = Objective {
+        geometry: &geometry,
+        targets: &targets,
+        settings: objective_settings.clone(),
+    };
+    let x_true = (a_true - a_min) / (a_max - a_min);
+    let at_truth = objective.evaluate_at(&space, &[x_true]).unwrap().value;
+    let unstretched = objective.evaluate(&truth).unwrap().value;
+    eprintln!("g at the known stretch {at_truth:e}, unstretched {unstretched:e}");
+    assert!(at_truth < 1e-8, "{at_truth:e}");
+    assert!(unstretched > 1e3 * at_truth.max(1e-9), "{unstretched:e}");
+
+    // COBYLA searches it (the swarm would too): from 0.95 back to 1.1.
+    let start = (0.95 - a_min) / (a_max - a_min);
+    let mut settings = FitSettings {
+        swarm: None,
+        start: Some(vec![start]),
+        swarm_objective: objective_settings.clone(),
+        local_objective: objective_settings,
+        local: LocalMethod::Cobyla,
+        local_evaluations: 16,
+        local_step: 0.2,
+        local_starts: 1,
+        local_x_tol: 1e-4,
+    };
+    let result = fit(
+        &geometry,
+        &targets,
+        &space,
+        &settings,
+        &Journal::in_memory(),
+        &|_| {},
+    )
+    .unwrap();
+    let a = result.geometry_stretch[1];
+    eprintln!(
+        "COBYLA: a_y = {a} ({}), g = {:e}",
+        result.local_status, result.evaluation.value
+    );
+    assert_eq!(result.geometry_stretch[0], 1.0);
+    assert!((a - a_true).abs() < 0.01 * a_true, "a_y = {a}");
+
+    // Levenberg–Marquardt keeps it at its start and fits the yarn model there.
+    let paper = paper_space(&geometry);
+    let k1 = paper.free[0];
+    let space =
+        ParameterSpace::new(truth, vec![k1, bound(Parameter::GeometryY, a_min, a_max)]).unwrap();
+    settings.local = LocalMethod::LevenbergMarquardt;
+    settings.local_evaluations = 3;
+    settings.start = Some(vec![0.5, start]);
+    let result = fit(
+        &geometry,
+        &targets,
+        &space,
+        &settings,
+        &Journal::in_memory(),
+        &|_| {},
+    )
+    .unwrap();
+    eprintln!("LM: x = {:?} ({})", result.x, result.local_status);
+    assert_eq!(result.x[1], start);
+    assert!((result.geometry_stretch[1] - 0.95).abs() < 1e-12);
+    assert_ne!(result.x[0], 0.5, "LM moved no parameter");
 }

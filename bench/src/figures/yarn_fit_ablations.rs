@@ -3,7 +3,8 @@
 //! at a time, as seed 002's Figs. 11, 16 and 17 do: without the particle swarm, with a linear
 //! instead of the bi-phasic yarn stretch law, without the rest-shape estimation; and the two
 //! local methods, the paper's COBYLA and Levenberg–Marquardt with exact sensitivities, compared
-//! for cost and final error.
+//! for cost and final error. Beyond the paper: `k_s2` fitted too, and the input geometry's
+//! stretch along x and y fitted too (the setting `yarn-fit` adopted from this comparison).
 
 use std::time::Instant;
 
@@ -17,6 +18,7 @@ use yarn_pattern::direction::Direction;
 
 use super::yarn_fit::{
     DEVELOPMENT_FABRIC, fabrics, fit_geometry, pattern_of, settings, shell_targets,
+    with_fitted_geometry,
 };
 use crate::plot::{LineChart, Series, save_grid};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
@@ -26,7 +28,7 @@ pub fn spec() -> FigureSpec {
     FigureSpec {
         name: "yarn-fit-ablations",
         title: "Yarn fit ablations: swarm, stretch law, rest shape, local method",
-        shows: "stretch stress against stretch (weft, warp) of the development fabric's shell targets and of the yarn model fitted with: swarm + Levenberg–Marquardt (ours, default), swarm + COBYLA (paper), COBYLA without swarm (Fig. 11), Levenberg–Marquardt without swarm, a linear yarn stretch law (Fig. 16), no rest-shape estimation (Fig. 17), and (beyond the paper) k_s2 fitted too; last panel: comfort-range error and fit time per variant",
+        shows: "stretch stress against stretch (weft, warp) of the development fabric's shell targets and of the yarn model fitted with: swarm + Levenberg–Marquardt (ours, default), swarm + COBYLA (paper), COBYLA without swarm (Fig. 11), Levenberg–Marquardt without swarm, a linear yarn stretch law (Fig. 16), no rest-shape estimation (Fig. 17), and (beyond the paper) k_s2 fitted too, or the procedural tile's stretch along x and y fitted too; last panel: comfort-range error and fit time per variant",
         paper: "Figs. 11, 16, 17: without the swarm, with a linear stretch law or without rest-shape estimation the stretching error blows up",
         guarded: false,
         run,
@@ -42,13 +44,16 @@ struct Variant {
     rest_shape: bool,
     /// Also fit the stiff stretch stiffness `k_s2` (beyond the paper), in [10, 1000] N.
     free_k2: bool,
+    /// Also fit the input geometry's stretch along x and y (beyond the paper, the default of
+    /// `yarn-fit`: [`with_fitted_geometry`]).
+    free_geometry: bool,
 }
 
 /// Bounds of `k_s2` in the "free k2" variant (N): a decade either side of the 200 N default
 /// and then some; the paper fixes it to the stiffest yarn's.
 const K2_BOUNDS: (f64, f64) = (10.0, 1000.0);
 
-const VARIANTS: [Variant; 7] = [
+const VARIANTS: [Variant; 8] = [
     Variant {
         name: "swarm + LM (default)",
         swarm: true,
@@ -56,6 +61,7 @@ const VARIANTS: [Variant; 7] = [
         linear_stretch: false,
         rest_shape: true,
         free_k2: false,
+        free_geometry: false,
     },
     Variant {
         name: "swarm + COBYLA (paper)",
@@ -64,6 +70,7 @@ const VARIANTS: [Variant; 7] = [
         linear_stretch: false,
         rest_shape: true,
         free_k2: false,
+        free_geometry: false,
     },
     Variant {
         name: "COBYLA, no swarm",
@@ -72,6 +79,7 @@ const VARIANTS: [Variant; 7] = [
         linear_stretch: false,
         rest_shape: true,
         free_k2: false,
+        free_geometry: false,
     },
     Variant {
         name: "LM, no swarm",
@@ -80,6 +88,7 @@ const VARIANTS: [Variant; 7] = [
         linear_stretch: false,
         rest_shape: true,
         free_k2: false,
+        free_geometry: false,
     },
     Variant {
         name: "linear stretch",
@@ -88,6 +97,7 @@ const VARIANTS: [Variant; 7] = [
         linear_stretch: true,
         rest_shape: true,
         free_k2: false,
+        free_geometry: false,
     },
     Variant {
         name: "no rest shape",
@@ -96,6 +106,7 @@ const VARIANTS: [Variant; 7] = [
         linear_stretch: false,
         rest_shape: false,
         free_k2: false,
+        free_geometry: false,
     },
     Variant {
         name: "free k2 (beyond the paper)",
@@ -104,6 +115,16 @@ const VARIANTS: [Variant; 7] = [
         linear_stretch: false,
         rest_shape: true,
         free_k2: true,
+        free_geometry: false,
+    },
+    Variant {
+        name: "fitted geometry (beyond the paper)",
+        swarm: true,
+        local: LocalMethod::LevenbergMarquardt,
+        linear_stretch: false,
+        rest_shape: true,
+        free_k2: false,
+        free_geometry: true,
     },
 ];
 
@@ -146,6 +167,9 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 max: K2_BOUNDS.1,
             });
             space = ParameterSpace::new(space.base, free)?;
+        }
+        if v.free_geometry {
+            space = with_fitted_geometry(space)?;
         }
         let mut s: FitSettings = settings(ctx.quick);
         if !v.swarm {

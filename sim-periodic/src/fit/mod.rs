@@ -14,6 +14,12 @@
 //!   differentiation of every equilibrium ([`crate::periodic::stress_sensitivities`]; beyond
 //!   the paper), or COBYLA ([`cobyla`], as the paper, §7.3.3).
 //!
+//! Beyond the paper, the input geometry's proportions can be searched too: stretch factors
+//! along x and y applied to it before the rest-shape estimation ([`Parameter::GeometryX`],
+//! [`Parameter::GeometryY`]). The swarm and COBYLA search them with the rest;
+//! Levenberg–Marquardt keeps them at its start, since they act only through the rest-shape
+//! estimation, which is not differentiated.
+//!
 //! **Differences from the paper.** The swarm is argmin's standard PSO (SPSO 2011: constant
 //! inertia `1/(2 ln 2)`, cognitive and social factors `½ + ln 2`) instead of the paper's
 //! decaying inertia (0.9 → 0.1) with repulsion, and it is sized for two cores
@@ -39,7 +45,9 @@ use crate::patterns::PatternError;
 use crate::periodic::{PeriodicError, YarnModel};
 pub use journal::Journal;
 pub use objective::{Evaluation, Objective, ObjectiveSettings, Sample};
-pub use parameters::{Bound, Parameter, ParameterSpace, estimated_radius, parameter_partial};
+pub use parameters::{
+    Bound, Parameter, ParameterSpace, estimated_radius, parameter_partial, stretched_geometry,
+};
 pub use targets::{TargetPoint, Targets};
 
 /// Errors of the yarn-parameter fit.
@@ -193,6 +201,10 @@ pub struct FitResult {
     pub x: Vec<f64>,
     /// Its free parameter values (SI, in the space's order).
     pub values: Vec<f64>,
+    /// The stretch `[a_x, a_y]` of the input geometry the model was fitted on
+    /// ([`ParameterSpace::geometry_stretch`]; `[1, 1]` without geometric parameters): the
+    /// model belongs to [`parameters::stretched_geometry`] of the input at it.
+    pub geometry_stretch: [f64; 2],
     /// The swarm's best point and value, if a swarm ran.
     pub swarm_best: Option<(Vec<f64>, f64)>,
     /// The evaluation of the fitted model with the local objective settings.
@@ -277,10 +289,9 @@ impl<'a> Cost<'a> {
         let (result, resumed) = match self.journal.get(self.phase, x) {
             Some(r) => (r, true),
             None => {
-                let model = self.space.model(x);
                 let r = self
                     .objective
-                    .evaluate(&model)
+                    .evaluate_at(self.space, x)
                     .map(|e| e.value)
                     .map_err(|e| e.to_string());
                 self.journal.record(self.phase, x, &r)?;
@@ -482,7 +493,7 @@ pub fn fit(
                     break;
                 }
                 let clamped: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
-                let g = match local.evaluate(&space.model(&clamped)) {
+                let g = match local.evaluate_at(space, &clamped) {
                     Ok(e) if !e.value.is_nan() => e.value,
                     Ok(_) => f64::INFINITY,
                     Err(e) => {
@@ -502,13 +513,14 @@ pub fn fit(
     let x: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
     let model = space.model(&x);
     let evaluation = objective(&settings.local_objective)
-        .evaluate(&model)
+        .evaluate_at(space, &x)
         .map_err(|e| {
             FitError::NothingEvaluated(local_evaluations, format!("{e} (last other: {last_error})"))
         })?;
     Ok(FitResult {
         model,
         values: space.values(&x),
+        geometry_stretch: space.geometry_stretch(&x),
         x,
         swarm_best,
         evaluation,
@@ -582,7 +594,9 @@ fn lm_search(
     let bounds = solver::LmBounds {
         lower: [0.0; N],
         upper: [1.0; N],
-        fixed: std::array::from_fn(|k| k >= n),
+        // The geometric parameters act through the rest-shape estimation only, which is not
+        // differentiated: Levenberg–Marquardt keeps them at the start (the swarm's choice).
+        fixed: std::array::from_fn(|k| k >= n || space.free[k].parameter.is_geometric()),
         scale: [1.0; N],
     };
     let lm_settings = solver::LmSettings {

@@ -55,7 +55,7 @@ use yarn_pattern::direction::Direction;
 use yarn_pattern::tile::Tile;
 
 use super::FitError;
-use super::parameters::{ParameterSpace, parameter_partial};
+use super::parameters::{ParameterSpace, parameter_partial, stretched_geometry};
 use super::targets::{TargetPoint, Targets, interpolate};
 
 /// Largest normal coarse stress of the rest state with [`ObjectiveSettings::stress_free_period`],
@@ -244,9 +244,18 @@ impl Objective<'_> {
         (0..n).map(|i| s_max * i as f64 / (n - 1) as f64).collect()
     }
 
-    /// The rest tile of `model` (step 1 of the module documentation).
+    /// The rest tile of `model` (step 1 of the module documentation) from the input geometry.
     pub fn rest_tile(
         &self,
+        model: &YarnModel,
+    ) -> Result<(Tile, nalgebra::Matrix2<f64>, usize), FitError> {
+        self.rest_tile_from(self.geometry, model)
+    }
+
+    /// The rest tile of `model` estimated from `geometry`.
+    fn rest_tile_from(
+        &self,
+        geometry: &Tile,
         model: &YarnModel,
     ) -> Result<(Tile, nalgebra::Matrix2<f64>, usize), FitError> {
         let settings = if self.settings.rest_shape {
@@ -257,7 +266,7 @@ impl Objective<'_> {
                 ..self.settings.relax.clone()
             }
         };
-        let (tile, report) = relax(self.geometry, model, &settings)?;
+        let (tile, report) = relax(geometry, model, &settings)?;
         if !(self.settings.rest_shape && self.settings.stress_free_period) {
             return Ok((tile, report.stress, report.total_iterations()));
         }
@@ -270,9 +279,17 @@ impl Objective<'_> {
         Ok((tile, period.stress, report.total_iterations()))
     }
 
-    /// Evaluates Eq. 11 at `model`.
+    /// Evaluates Eq. 11 at `model` on the input geometry.
     pub fn evaluate(&self, model: &YarnModel) -> Result<Evaluation, FitError> {
-        Ok(self.run(model, None, None)?.0)
+        Ok(self.run(model, [1.0, 1.0], None, None)?.0)
+    }
+
+    /// Evaluates Eq. 11 at the normalized point `x` of `space`: its model, on the input
+    /// geometry stretched by its geometric parameters ([`ParameterSpace::geometry_stretch`]).
+    pub fn evaluate_at(&self, space: &ParameterSpace, x: &[f64]) -> Result<Evaluation, FitError> {
+        Ok(self
+            .run(&space.model(x), space.geometry_stretch(x), None, None)?
+            .0)
     }
 
     /// [`Objective::evaluate`] at the normalized point `x` of `space`, with the Jacobian of the
@@ -287,6 +304,10 @@ impl Objective<'_> {
     /// With `rest = Some(tile)` the rest-shape estimation is skipped and `tile` is the rest
     /// tile (frozen): the objective is then a smooth function of the parameters and the
     /// Jacobian its exact derivative.
+    ///
+    /// The geometric parameters ([`ParameterSpace::geometry_stretch`]) stretch the input
+    /// geometry before the rest-shape estimation; their columns are zero, the derivative for
+    /// the frozen rest tile.
     pub fn evaluate_with_jacobian(
         &self,
         space: &ParameterSpace,
@@ -294,15 +315,17 @@ impl Objective<'_> {
         rest: Option<&Tile>,
     ) -> Result<(Evaluation, DMatrix<f64>), FitError> {
         let model = space.model(x);
-        let (evaluation, jacobian) = self.run(&model, Some((space, x)), rest)?;
+        let stretch = space.geometry_stretch(x);
+        let (evaluation, jacobian) = self.run(&model, stretch, Some((space, x)), rest)?;
         Ok((evaluation, jacobian.expect("requested")))
     }
 
     /// The evaluation, and the residual Jacobian when a space and point are given, on the
-    /// given rest tile or the estimated one.
+    /// given rest tile or the one estimated from the input geometry stretched by `stretch`.
     fn run(
         &self,
         model: &YarnModel,
+        stretch: [f64; 2],
         differentiate: Option<(&ParameterSpace, &[f64])>,
         rest: Option<&Tile>,
     ) -> Result<(Evaluation, Option<DMatrix<f64>>), FitError> {
@@ -318,7 +341,7 @@ impl Objective<'_> {
                 )?;
                 (tile.clone(), eq.stress, eq.iterations)
             }
-            None => self.rest_tile(model)?,
+            None => self.rest_tile_from(&stretched_geometry(self.geometry, stretch)?, model)?,
         };
         let n_p = differentiate.map_or(0, |(space, _)| space.dim());
         // dp/dx of each free parameter (the normalization's chain rule).

@@ -20,7 +20,10 @@
 //! paper's isotropic rods, follows the bending stiffness with the base model's ratio `k_t/k_b`.
 //!
 //! Beyond the paper, `k_s2` can be freed too ([`Parameter::StretchStiff`]); the paper's space
-//! keeps it fixed.
+//! keeps it fixed. Also beyond the paper, the input geometry itself can be stretched along x
+//! and y before the rest-shape estimation ([`Parameter::GeometryX`], [`Parameter::GeometryY`],
+//! [`ParameterSpace::geometry_stretch`]): the paper starts from hand-registered yarn geometry
+//! of each fabric (§4.2), where a procedural tile only guesses the loops' proportions.
 //!
 //! The optimizers see every parameter normalized to `[0, 1]` (log-scaled ones in log space).
 
@@ -49,17 +52,28 @@ pub enum Parameter {
     /// takes it as an input (the stiffest yarn's); not in [`ParameterSpace::paper`], free only
     /// when listed (the CLI's `[parameters] k2 = [min, max]`).
     StretchStiff,
+    /// Stretch factor (unitless, > 0) of the input geometry along x (the course: weft) before
+    /// the rest-shape estimation: positions and period `x → a x`, the rest shape reset to the
+    /// stretched geometry ([`stretched_geometry`]). **Beyond the paper**, which registers each
+    /// fabric's geometry by hand (§4.2); not in [`ParameterSpace::paper`].
+    GeometryX,
+    /// Stretch factor of the input geometry along y (the wale: warp); as
+    /// [`Parameter::GeometryX`].
+    GeometryY,
 }
 
 impl Parameter {
-    /// All parameters: the paper's five in its order, then `k_s2`.
-    pub const ALL: [Parameter; 6] = [
+    /// All parameters: the paper's five in its order, then `k_s2`, then the geometry's
+    /// stretch factors.
+    pub const ALL: [Parameter; 8] = [
         Parameter::StretchSoft,
         Parameter::Onset,
         Parameter::Bending,
         Parameter::ContactRadius,
         Parameter::ContactStiffness,
         Parameter::StretchStiff,
+        Parameter::GeometryX,
+        Parameter::GeometryY,
     ];
 
     /// The name used in configs and reports.
@@ -71,7 +85,15 @@ impl Parameter {
             Parameter::ContactRadius => "contact_radius",
             Parameter::ContactStiffness => "contact_stiffness",
             Parameter::StretchStiff => "k2",
+            Parameter::GeometryX => "geometry_x",
+            Parameter::GeometryY => "geometry_y",
         }
+    }
+
+    /// Whether it stretches the input geometry ([`Parameter::GeometryX`],
+    /// [`Parameter::GeometryY`]) rather than setting a value of the yarn model.
+    pub fn is_geometric(self) -> bool {
+        matches!(self, Parameter::GeometryX | Parameter::GeometryY)
     }
 
     /// The parameter called `name`, if any.
@@ -90,7 +112,8 @@ impl Parameter {
         )
     }
 
-    /// Its value in `model`.
+    /// Its value in `model`; a geometric parameter is not part of the model and reads 1 (the
+    /// unstretched input geometry).
     pub fn get(self, model: &YarnModel) -> f64 {
         match self {
             Parameter::StretchSoft => match model.stretch {
@@ -108,10 +131,11 @@ impl Parameter {
                 StretchLaw::Linear { .. } => 0.0,
                 StretchLaw::TwoPhase { k2, .. } => k2,
             },
+            Parameter::GeometryX | Parameter::GeometryY => 1.0,
         }
     }
 
-    /// `model` with this parameter set to `value`.
+    /// `model` with this parameter set to `value` (a geometric parameter leaves it as it is).
     fn set(self, model: &mut YarnModel, value: f64) {
         match self {
             Parameter::StretchSoft => match &mut model.stretch {
@@ -139,6 +163,7 @@ impl Parameter {
                     *k2 = value;
                 }
             }
+            Parameter::GeometryX | Parameter::GeometryY => {}
         }
     }
 }
@@ -232,6 +257,13 @@ impl ParameterSpace {
                     b.min
                 )));
             }
+            if b.parameter.is_geometric() && b.min <= 0.0 {
+                return Err(FitError::Invalid(format!(
+                    "parameter {name} stretches the geometry: its lower bound must be \
+                     positive, found {}",
+                    b.min
+                )));
+            }
             if free[..i].iter().any(|o| o.parameter == b.parameter) {
                 return Err(FitError::Invalid(format!(
                     "parameter {name} is listed twice"
@@ -263,6 +295,20 @@ impl ParameterSpace {
             b.parameter.set(&mut m, denormalize(b, t.clamp(0.0, 1.0)));
         }
         m
+    }
+
+    /// The stretch factors `[a_x, a_y]` of the input geometry at the normalized point `x`
+    /// ([`Parameter::GeometryX`], [`Parameter::GeometryY`]; 1 where not free).
+    pub fn geometry_stretch(&self, x: &[f64]) -> [f64; 2] {
+        let mut stretch = [1.0, 1.0];
+        for (b, &t) in self.free.iter().zip(x) {
+            match b.parameter {
+                Parameter::GeometryX => stretch[0] = denormalize(b, t.clamp(0.0, 1.0)),
+                Parameter::GeometryY => stretch[1] = denormalize(b, t.clamp(0.0, 1.0)),
+                _ => {}
+            }
+        }
+        stretch
     }
 
     /// The parameter values (SI) at the normalized point `x`.
@@ -305,7 +351,9 @@ fn denormalize(b: &Bound, t: f64) -> f64 {
 /// derivatives). Exact for `k_s1`, `k_s2`, `k_b` (with the twist following it) and `k_c1`, in
 /// which the energy is linear: the gradient and stress of the model with only that stiffness set to 1.
 /// Central differences at fixed state (relative step 1e-6) for the onset `Ȳ_s` and the radius
-/// `R₁`, in which it is not; the contact pairs are the equilibrium's throughout.
+/// `R₁`, in which it is not; the contact pairs are the equilibrium's throughout. Zero for the
+/// geometric parameters: they act on the input geometry before the rest-shape estimation, so
+/// a given rest tile does not depend on them.
 pub fn parameter_partial(
     tile: &Tile,
     model: &YarnModel,
@@ -334,6 +382,10 @@ pub fn parameter_partial(
         Ok(Partial { gradient, stress })
     };
     match parameter {
+        Parameter::GeometryX | Parameter::GeometryY => Ok(Partial {
+            gradient: vec![0.0; eq.dofs.len()],
+            stress: nalgebra::Matrix2::zeros(),
+        }),
         // The energy is linear in k_s1 and k_s2 jointly (Eq. 5), so each partial is the
         // model with only that stiffness, at 1.
         Parameter::StretchSoft | Parameter::StretchStiff => {
@@ -378,6 +430,21 @@ pub fn parameter_partial(
             })
         }
     }
+}
+
+/// The input geometry `tile` stretched by `stretch = [a_x, a_y]` ([`Parameter::GeometryX`],
+/// [`Parameter::GeometryY`]): positions and period `(x, y) → (a_x x, a_y y)`, reference frames
+/// transported onto the stretched edges ([`crate::patterns::rebase_stretched`]), and the rest
+/// shape reset to the stretched geometry, as a procedural tile's is its own geometry. The tile
+/// itself at `[1, 1]`.
+pub fn stretched_geometry(tile: &Tile, stretch: [f64; 2]) -> Result<Tile, FitError> {
+    if stretch == [1.0, 1.0] {
+        return Ok(tile.clone());
+    }
+    let zero = vec![0.0; 4 * tile.n_vertices()];
+    let mut out = crate::patterns::rebase_stretched(tile, stretch, &zero)?;
+    crate::patterns::reset_rest_shape(&mut out, None)?;
+    Ok(out)
 }
 
 /// The base radius `R_est` of seed 002 §7.3.2: the smallest contact radius at which every
@@ -457,5 +524,59 @@ mod tests {
         ];
         assert!(bad(twice).contains("twice"));
         assert!(bad(vec![]).contains("no parameter"));
+        let flat = bad(vec![b(Parameter::GeometryY, 0.0, 1.2)]);
+        assert!(
+            flat.contains("geometry_y") && flat.contains("positive"),
+            "{flat}"
+        );
+    }
+
+    #[test]
+    fn the_geometry_stretch_scales_positions_period_and_rest_lengths() {
+        let pattern = crate::patterns::Pattern::Stockinette;
+        let tile = pattern.generate(&pattern.default_params(1e-3)).unwrap();
+        let base = YarnModel::default_for_radius(1e-3);
+        let b = |parameter, min, max| Bound {
+            parameter,
+            min,
+            max,
+        };
+        let space = ParameterSpace::new(
+            base,
+            vec![
+                b(Parameter::Bending, 1e-9, 1e-7),
+                b(Parameter::GeometryY, 0.8, 1.3),
+            ],
+        )
+        .unwrap();
+        // Not free: 1; free: its denormalized value (linear scale); the model is untouched.
+        let stretch = space.geometry_stretch(&[0.5, 0.4]);
+        assert_eq!(stretch[0], 1.0);
+        assert!((stretch[1] - 1.0).abs() < 1e-12);
+        assert!((space.geometry_stretch(&[0.5, 1.0])[1] - 1.3).abs() < 1e-12);
+        assert_eq!(
+            space.model(&[0.5, 0.0]).stretch,
+            space.model(&[0.5, 1.0]).stretch
+        );
+        assert_eq!(stretched_geometry(&tile, [1.0, 1.0]).unwrap(), tile);
+
+        let [ax, ay] = [1.2, 0.9];
+        let out = stretched_geometry(&tile, [ax, ay]).unwrap();
+        assert_eq!(out.period, [ax * tile.period[0], ay * tile.period[1]]);
+        for (p, q) in tile.positions.iter().zip(&out.positions) {
+            assert!((q - nalgebra::Vector3::new(ax * p.x, ay * p.y, p.z)).norm() < 1e-15);
+        }
+        // The rest shape is the stretched geometry's own: rest lengths are its edge lengths,
+        // which changed.
+        let mut changed = 0;
+        for e in 0..out.edges.len() {
+            let l = out.edge_vector(e).norm();
+            assert!((out.rest_lengths[e] - l).abs() < 1e-12 * l);
+            changed += usize::from((l - tile.rest_lengths[e]).abs() > 1e-3 * l);
+        }
+        assert!(
+            changed > out.edges.len() / 2,
+            "{changed} edges changed length"
+        );
     }
 }
