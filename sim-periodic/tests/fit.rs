@@ -277,6 +277,18 @@ fn a_known_geometry_stretch_is_recovered_by_cobyla_and_kept_by_levenberg_marquar
     assert!(at_truth < 1e-8, "{at_truth:e}");
     assert!(unstretched > 1e3 * at_truth.max(1e-9), "{unstretched:e}");
 
+    let run = |space: &ParameterSpace, settings: &FitSettings| {
+        fit(
+            &geometry,
+            &targets,
+            space,
+            settings,
+            &Journal::in_memory(),
+            &|_| {},
+        )
+        .unwrap()
+    };
+
     // COBYLA searches it (the swarm would too): from 0.95 back to 1.1.
     let start = (0.95 - a_min) / (a_max - a_min);
     let mut settings = FitSettings {
@@ -290,15 +302,7 @@ fn a_known_geometry_stretch_is_recovered_by_cobyla_and_kept_by_levenberg_marquar
         local_starts: 1,
         local_x_tol: 1e-4,
     };
-    let result = fit(
-        &geometry,
-        &targets,
-        &space,
-        &settings,
-        &Journal::in_memory(),
-        &|_| {},
-    )
-    .unwrap();
+    let result = run(&space, &settings);
     let a = result.geometry_stretch[1];
     eprintln!(
         "COBYLA: a_y = {a} ({}), g = {:e}",
@@ -315,15 +319,7 @@ fn a_known_geometry_stretch_is_recovered_by_cobyla_and_kept_by_levenberg_marquar
     settings.local = LocalMethod::LevenbergMarquardt;
     settings.local_evaluations = 3;
     settings.start = Some(vec![0.5, start]);
-    let result = fit(
-        &geometry,
-        &targets,
-        &space,
-        &settings,
-        &Journal::in_memory(),
-        &|_| {},
-    )
-    .unwrap();
+    let result = run(&space, &settings);
     eprintln!("LM: x = {:?} ({})", result.x, result.local_status);
     assert_eq!(result.x[1], start);
     assert!((result.geometry_stretch[1] - 0.95).abs() < 1e-12);
