@@ -301,10 +301,10 @@ impl ParameterSpace {
     /// ([`Parameter::GeometryX`], [`Parameter::GeometryY`]; 1 where not free).
     pub fn geometry_stretch(&self, x: &[f64]) -> [f64; 2] {
         let mut stretch = [1.0, 1.0];
-        for (b, &t) in self.free.iter().zip(x) {
+        for (b, v) in self.free.iter().zip(self.values(x)) {
             match b.parameter {
-                Parameter::GeometryX => stretch[0] = denormalize(b, t.clamp(0.0, 1.0)),
-                Parameter::GeometryY => stretch[1] = denormalize(b, t.clamp(0.0, 1.0)),
+                Parameter::GeometryX => stretch[0] = v,
+                Parameter::GeometryY => stretch[1] = v,
                 _ => {}
             }
         }
