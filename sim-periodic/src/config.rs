@@ -412,6 +412,7 @@ impl Config {
 /// local_samples = 20
 /// local_evaluations = 60
 /// local_starts = 1              # Levenberg–Marquardt from this many distinct swarm points
+///                               # (in parallel; the yarn-fit figure uses 3)
 /// compression_nodes = 3
 /// comfort_stress = 33.333       # N/m: 2 N on the paper's 6 cm swatch
 /// ```

@@ -39,6 +39,7 @@ use argmin::core::{CostFunction, Executor, State};
 use argmin::solver::particleswarm::ParticleSwarm;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rand_xoshiro::rand_core::SeedableRng;
+use rayon::prelude::*;
 
 use crate::curves::CurveError;
 use crate::patterns::PatternError;
@@ -142,7 +143,7 @@ pub struct FitSettings {
     pub local_step: f64,
     /// Levenberg–Marquardt after a swarm: runs from the swarm's best and from the next-best
     /// evaluated points at least [`LOCAL_START_SEPARATION`] from every start before them, up
-    /// to this many starts in all, and keeps the lowest objective. Default 1.
+    /// to this many starts in all (run in parallel), and keeps the lowest objective. Default 1.
     pub local_starts: usize,
     /// The local search stops when a step changes every normalized coordinate by less than
     /// this. Default 1e-4.
@@ -474,12 +475,29 @@ pub fn fit(
             // From every start; the lowest local objective wins (the first on ties). With one
             // start there is nothing to compare, and the result is evaluated once, below. A
             // later start whose search fails is skipped (its error kept for the report); the
-            // first start's failure is the fit's.
+            // first start's failure is the fit's. The starts run in parallel (each is
+            // deterministic, and the choice is made in start order afterwards).
             let local = objective(&settings.local_objective);
+            let searched: Vec<Result<(f64, Vec<f64>, String, usize), FitError>> = starts
+                .par_iter()
+                .map(|s| {
+                    let (x, status, count) = lm_search(&local, space, s, settings, progress)?;
+                    if starts.len() == 1 {
+                        return Ok((0.0, x, status, count));
+                    }
+                    let clamped: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
+                    // A start whose end point cannot be evaluated loses to every other.
+                    let g = match local.evaluate_at(space, &clamped) {
+                        Ok(e) if !e.value.is_nan() => e.value,
+                        _ => f64::INFINITY,
+                    };
+                    Ok((g, x, status, count))
+                })
+                .collect();
             let mut best: Option<(f64, Vec<f64>, String)> = None;
             let mut total = 0;
-            for (i, s) in starts.iter().enumerate() {
-                let (x, status, count) = match lm_search(&local, space, s, settings, progress) {
+            for (i, found) in searched.into_iter().enumerate() {
+                let (g, x, status, count) = match found {
                     Ok(found) => found,
                     Err(e) if i > 0 => {
                         last_error = e.to_string();
@@ -488,20 +506,11 @@ pub fn fit(
                     Err(e) => return Err(e),
                 };
                 total += count;
-                if starts.len() == 1 {
-                    best = Some((0.0, x, status));
-                    break;
-                }
-                let clamped: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
-                let g = match local.evaluate_at(space, &clamped) {
-                    Ok(e) if !e.value.is_nan() => e.value,
-                    Ok(_) => f64::INFINITY,
-                    Err(e) => {
-                        last_error = e.to_string();
-                        f64::INFINITY
-                    }
+                let status = if starts.len() == 1 {
+                    status
+                } else {
+                    format!("start {} of {}: {status}", i + 1, starts.len())
                 };
-                let status = format!("start {} of {}: {status}", i + 1, starts.len());
                 if best.as_ref().is_none_or(|b| g < b.0) {
                     best = Some((g, x, status));
                 }
