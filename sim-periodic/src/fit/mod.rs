@@ -478,7 +478,7 @@ pub fn fit(
             // first start's failure is the fit's. The starts run in parallel (each is
             // deterministic, and the choice is made in start order afterwards).
             let local = objective(&settings.local_objective);
-            let searched: Vec<Result<(f64, Vec<f64>, String, usize), FitError>> = starts
+            let searched: Vec<Result<LocalRun, FitError>> = starts
                 .par_iter()
                 .map(|s| {
                     let (x, status, count) = lm_search(&local, space, s, settings, progress)?;
@@ -538,6 +538,10 @@ pub fn fit(
         local_status: status,
     })
 }
+
+/// One Levenberg–Marquardt start's outcome: its end point's local objective (0 when it is the
+/// only start), the end point, how it stopped and its iterations.
+type LocalRun = (f64, Vec<f64>, String, usize);
 
 /// COBYLA from `start`; returns the best point and how it stopped.
 fn cobyla_search(
