@@ -40,8 +40,9 @@ const SINGLE_SIZE: (u32, u32) = (960, 640);
 /// Size of a two-panel chart, in pixels.
 const PAIR_SIZE: (u32, u32) = (1600, 640);
 
-/// Series colours, in order (the "tab10" palette).
-const PALETTE: [RGBColor; 10] = [
+/// Series colours, in order (the "tab10" palette, then black, so that an eleventh series is
+/// not drawn in the first one's colour).
+const PALETTE: [RGBColor; 11] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -52,6 +53,7 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(127, 127, 127),
     RGBColor(188, 189, 34),
     RGBColor(23, 190, 207),
+    RGBColor(0, 0, 0),
 ];
 
 /// Registers the embedded font with plotters (once per process).

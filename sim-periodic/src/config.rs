@@ -407,6 +407,7 @@ impl Config {
 /// particles = 16
 /// swarm_iterations = 6
 /// seed = 2022
+/// inertia = [0.7213, 0.7213]    # swarm inertia weight, first and last iteration (paper: [0.9, 0.1])
 /// swarm_samples = 7             # stress samples per direction in the swarm
 /// local = "levenberg-marquardt" # or "cobyla" (the paper's)
 /// local_samples = 20
@@ -472,6 +473,9 @@ pub struct FitOptions {
     pub swarm_iterations: u64,
     /// Swarm seed.
     pub seed: u64,
+    /// The swarm's inertia weight at its first and last iteration
+    /// ([`crate::fit::SwarmSettings::inertia`]).
+    pub inertia: [f64; 2],
     /// Stress samples per direction in the swarm.
     pub swarm_samples: usize,
     /// `levenberg-marquardt` or `cobyla`.
@@ -499,6 +503,7 @@ impl Default for FitOptions {
             particles: swarm.particles,
             swarm_iterations: swarm.iterations,
             seed: swarm.seed,
+            inertia: [swarm.inertia.0, swarm.inertia.1],
             swarm_samples: s.swarm_objective.samples,
             local: "levenberg-marquardt".into(),
             local_samples: s.local_objective.samples,
@@ -585,6 +590,7 @@ impl FitConfig {
                 particles: f.particles,
                 iterations: f.swarm_iterations,
                 seed: f.seed,
+                inertia: (f.inertia[0], f.inertia[1]),
             }),
             start: None,
             swarm_objective: objective(f.swarm_samples),

@@ -174,6 +174,7 @@ fn several_local_starts_keep_the_best_and_zero_is_an_error() {
             particles: 6,
             iterations: 1,
             seed: 7,
+            ..sim_periodic::fit::SwarmSettings::default()
         }),
         swarm_objective: objective.clone(),
         local_objective: objective.clone(),
@@ -204,6 +205,61 @@ fn several_local_starts_keep_the_best_and_zero_is_an_error() {
     );
     let e = run(0).unwrap_err().to_string();
     assert!(e.contains("local_starts"), "{e}");
+}
+
+/// The swarm's inertia: argmin's constant weight given explicitly reproduces the default fit
+/// bit for bit (the per-iteration weight setting changes nothing else), the paper's decaying
+/// schedule moves the swarm, and a negative weight is an error.
+#[test]
+fn the_swarm_inertia_schedule_is_argmins_swarm_with_the_weight_set_per_iteration() {
+    use sim_periodic::fit::{SwarmSettings, constant_inertia};
+    let geometry = geometry();
+    let space = paper_space(&geometry);
+    let truth = space.model(&[0.6, 0.4, 0.5, 0.5, 0.5]);
+    let targets = targets_of(&geometry, &truth, &[(Direction::Weft, 0.3)], 3);
+    let objective = ObjectiveSettings {
+        samples: 3,
+        compression_nodes: 2,
+        ..ObjectiveSettings::default()
+    };
+    let run = |inertia: Option<(f64, f64)>| {
+        let mut swarm = SwarmSettings {
+            particles: 4,
+            iterations: 2,
+            seed: 11,
+            ..SwarmSettings::default()
+        };
+        if let Some(w) = inertia {
+            swarm.inertia = w;
+        }
+        let settings = FitSettings {
+            swarm: Some(swarm),
+            swarm_objective: objective.clone(),
+            local_objective: objective.clone(),
+            local_evaluations: 1,
+            ..FitSettings::default()
+        };
+        fit(
+            &geometry,
+            &targets,
+            &space,
+            &settings,
+            &Journal::in_memory(),
+            &|_| {},
+        )
+    };
+    let default = run(None).unwrap();
+    let w = constant_inertia();
+    let explicit = run(Some((w, w))).unwrap();
+    assert_eq!(default.swarm_best, explicit.swarm_best);
+    assert_eq!(default.x, explicit.x);
+    let paper = run(Some((0.9, 0.1))).unwrap();
+    assert_ne!(
+        paper.swarm_best.as_ref().map(|b| &b.0),
+        default.swarm_best.as_ref().map(|b| &b.0)
+    );
+    let e = run(Some((-0.1, 0.1))).unwrap_err().to_string();
+    assert!(e.contains("inertia"), "{e}");
 }
 
 /// `k2` (beyond the paper) is free only when listed, only with the two-phase law, and moves

@@ -21,8 +21,10 @@
 //! estimation, which is not differentiated.
 //!
 //! **Differences from the paper.** The swarm is argmin's standard PSO (SPSO 2011: constant
-//! inertia `1/(2 ln 2)`, cognitive and social factors `½ + ln 2`) instead of the paper's
-//! decaying inertia (0.9 → 0.1) with repulsion, and it is sized for two cores
+//! inertia `1/(2 ln 2)`, cognitive and social factors `½ + ln 2`) by default; the paper's
+//! decaying inertia (0.9 → 0.1) is [`SwarmSettings::inertia`] (argmin's swarm with the weight
+//! set before each iteration), and its heuristic repulsion is not available. The swarm is
+//! sized for two cores
 //! ([`SwarmSettings`]), not the paper's 64 particles × 10 steps on 256 cores. After the
 //! rest-shape rounds the period is relaxed to zero normal coarse stress
 //! ([`ObjectiveSettings::stress_free_period`]).
@@ -35,8 +37,8 @@ pub mod targets;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use argmin::core::{CostFunction, Executor, State};
-use argmin::solver::particleswarm::ParticleSwarm;
+use argmin::core::{CostFunction, Executor, KV, PopulationState, Problem, Solver, State};
+use argmin::solver::particleswarm::{Particle, ParticleSwarm};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rand_xoshiro::rand_core::SeedableRng;
 use rayon::prelude::*;
@@ -110,6 +112,15 @@ pub struct SwarmSettings {
     pub iterations: u64,
     /// Seed of the swarm's random numbers (a fit is reproducible for a given seed).
     pub seed: u64,
+    /// Inertia weight on the particles' velocity at the first and the last iteration, linear
+    /// in between (the paper, §7.3.3: 0.9 to 0.1). Default: argmin's constant `1/(2 ln 2)`
+    /// ([`constant_inertia`]) at both ends.
+    pub inertia: (f64, f64),
+}
+
+/// argmin's constant inertia weight of the particle swarm, `1/(2 ln 2)`.
+pub fn constant_inertia() -> f64 {
+    1.0 / (2.0 * 2f64.ln())
 }
 
 impl Default for SwarmSettings {
@@ -118,6 +129,7 @@ impl Default for SwarmSettings {
             particles: 16,
             iterations: 6,
             seed: 2022,
+            inertia: (constant_inertia(), constant_inertia()),
         }
     }
 }
@@ -340,6 +352,60 @@ impl CostFunction for SwarmCost<'_, '_> {
     }
 }
 
+/// argmin's particle swarm with the inertia weight set before every iteration, linear from
+/// `inertia.0` at the first to `inertia.1` at the last (seed 002 §7.3.3 decays it from 0.9 to
+/// 0.1); argmin's own swarm keeps it constant. Everything else is argmin's.
+struct DecayingInertia {
+    /// The swarm (taken out and put back to reset its inertia, which argmin sets by value).
+    swarm: Option<ParticleSwarm<Vec<f64>, f64, Xoshiro256PlusPlus>>,
+    inertia: (f64, f64),
+}
+
+type SwarmState = PopulationState<Particle<Vec<f64>, f64>, f64>;
+
+impl<O> Solver<O, SwarmState> for DecayingInertia
+where
+    O: CostFunction<Param = Vec<f64>, Output = f64> + argmin::core::SyncAlias,
+{
+    fn name(&self) -> &str {
+        "Particle Swarm Optimization, decaying inertia"
+    }
+
+    fn init(
+        &mut self,
+        problem: &mut Problem<O>,
+        state: SwarmState,
+    ) -> Result<(SwarmState, Option<KV>), argmin::core::Error> {
+        self.swarm
+            .as_mut()
+            .expect("the swarm is put back after every use")
+            .init(problem, state)
+    }
+
+    fn next_iter(
+        &mut self,
+        problem: &mut Problem<O>,
+        state: SwarmState,
+    ) -> Result<(SwarmState, Option<KV>), argmin::core::Error> {
+        let weight = inertia_at(self.inertia, state.get_iter(), state.get_max_iters());
+        let swarm = self
+            .swarm
+            .take()
+            .expect("the swarm is put back after every use")
+            .with_inertia_factor(weight)?;
+        let swarm = self.swarm.insert(swarm);
+        swarm.next_iter(problem, state)
+    }
+}
+
+/// The inertia weight of swarm iteration `iter` (from 0) of `iterations`: linear from
+/// `inertia.0` at the first to `inertia.1` at the last.
+fn inertia_at(inertia: (f64, f64), iter: u64, iterations: u64) -> f64 {
+    let steps = iterations.saturating_sub(1).max(1) as f64;
+    let t = (iter as f64 / steps).min(1.0);
+    inertia.0 + t * (inertia.1 - inertia.0)
+}
+
 /// A stable fingerprint of a fit's inputs, for its journal.
 pub fn fingerprint(
     geometry: &yarn_pattern::tile::Tile,
@@ -415,8 +481,20 @@ pub fn fit(
                 "swarm",
                 progress,
             );
-            let solver = ParticleSwarm::new((vec![0.0; n], vec![1.0; n]), swarm.particles)
-                .with_rng_generator(Xoshiro256PlusPlus::seed_from_u64(swarm.seed));
+            let (first, last) = swarm.inertia;
+            if !(first.is_finite() && last.is_finite() && first >= 0.0 && last >= 0.0) {
+                return Err(FitError::Invalid(format!(
+                    "the swarm's inertia weights must be finite and non-negative, found \
+                     ({first}, {last})"
+                )));
+            }
+            let solver = DecayingInertia {
+                swarm: Some(
+                    ParticleSwarm::new((vec![0.0; n], vec![1.0; n]), swarm.particles)
+                        .with_rng_generator(Xoshiro256PlusPlus::seed_from_u64(swarm.seed)),
+                ),
+                inertia: swarm.inertia,
+            };
             let result = Executor::new(SwarmCost(&cost), solver)
                 .configure(|state| state.max_iters(swarm.iterations))
                 .run()
@@ -682,4 +760,22 @@ fn lm_search(
         ),
         count,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::inertia_at;
+
+    /// The paper's schedule (§7.3.3): 0.9 at the first swarm iteration, 0.1 at the last,
+    /// linear in between; a single iteration takes the first weight.
+    #[test]
+    fn the_inertia_weight_decays_linearly_from_the_first_to_the_last_iteration() {
+        let paper = (0.9, 0.1);
+        assert_eq!(inertia_at(paper, 0, 5), 0.9);
+        assert!((inertia_at(paper, 2, 5) - 0.5).abs() < 1e-15);
+        assert!((inertia_at(paper, 4, 5) - 0.1).abs() < 1e-15);
+        assert_eq!(inertia_at(paper, 0, 1), 0.9);
+        let w = super::constant_inertia();
+        assert!((0..6).all(|k| inertia_at((w, w), k, 6) == w));
+    }
 }
