@@ -3,17 +3,49 @@
 
 use sim_periodic::curves::CurveSettings;
 use sim_periodic::fit::{
-    Bound, FitSettings, Journal, LocalMethod, Objective, ObjectiveSettings, Parameter,
-    ParameterSpace, estimated_radius, fit, stretched_geometry,
+    Bound, FitError, FitResult, FitSettings, Journal, LocalMethod, Objective, ObjectiveSettings,
+    Parameter, ParameterSpace, Targets, estimated_radius, fit, stretched_geometry,
 };
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel};
 use yarn_pattern::direction::Direction;
+use yarn_pattern::tile::Tile;
 
 mod common;
 use common::{stockinette_geometry as geometry, targets_of};
 
+/// [`fit`] with an in-memory journal and no progress output.
+fn fit_in_memory(
+    geometry: &Tile,
+    targets: &Targets,
+    space: &ParameterSpace,
+    settings: &FitSettings,
+) -> Result<FitResult, FitError> {
+    fit(
+        geometry,
+        targets,
+        space,
+        settings,
+        &Journal::in_memory(),
+        &|_| {},
+    )
+}
+
+/// A small, cheap case for the swarm tests: the paper's space, targets of a known model in
+/// weft up to 30 % stretch, and objective settings with 3 samples and 2 compression nodes.
+fn small_weft_case(geometry: &Tile) -> (ParameterSpace, Targets, ObjectiveSettings) {
+    let space = paper_space(geometry);
+    let truth = space.model(&[0.6, 0.4, 0.5, 0.5, 0.5]);
+    let targets = targets_of(geometry, &truth, &[(Direction::Weft, 0.3)], 3);
+    let objective = ObjectiveSettings {
+        samples: 3,
+        compression_nodes: 2,
+        ..ObjectiveSettings::default()
+    };
+    (space, targets, objective)
+}
+
 /// The paper's five parameters around the default 1 mm model, for `geometry`.
-fn paper_space(geometry: &yarn_pattern::tile::Tile) -> ParameterSpace {
+fn paper_space(geometry: &Tile) -> ParameterSpace {
     let base = YarnModel::default_for_radius(1e-3);
     let r_est = estimated_radius(geometry, &base).unwrap();
     ParameterSpace::paper(&base, r_est).unwrap()
@@ -50,15 +82,7 @@ fn the_fit_recovers_known_parameters_from_their_own_curves() {
         local_x_tol: 1e-6,
     };
     let t = std::time::Instant::now();
-    let result = fit(
-        &geometry,
-        &targets,
-        &space,
-        &settings,
-        &Journal::in_memory(),
-        &|_| {},
-    )
-    .unwrap();
+    let result = fit_in_memory(&geometry, &targets, &space, &settings).unwrap();
     let truth_values = space.values(&truth_x);
     eprintln!(
         "{} evaluations in {:.1} s ({}), g = {:e}",
@@ -161,14 +185,7 @@ fn the_residual_jacobian_matches_central_differences_on_a_frozen_rest_tile() {
 #[test]
 fn several_local_starts_keep_the_best_and_zero_is_an_error() {
     let geometry = geometry();
-    let space = paper_space(&geometry);
-    let truth = space.model(&[0.6, 0.4, 0.5, 0.5, 0.5]);
-    let targets = targets_of(&geometry, &truth, &[(Direction::Weft, 0.3)], 3);
-    let objective = ObjectiveSettings {
-        samples: 3,
-        compression_nodes: 2,
-        ..ObjectiveSettings::default()
-    };
+    let (space, targets, objective) = small_weft_case(&geometry);
     let settings = |starts: usize| FitSettings {
         swarm: Some(sim_periodic::fit::SwarmSettings {
             particles: 6,
@@ -182,16 +199,7 @@ fn several_local_starts_keep_the_best_and_zero_is_an_error() {
         local_starts: starts,
         ..FitSettings::default()
     };
-    let run = |starts: usize| {
-        fit(
-            &geometry,
-            &targets,
-            &space,
-            &settings(starts),
-            &Journal::in_memory(),
-            &|_| {},
-        )
-    };
+    let run = |starts: usize| fit_in_memory(&geometry, &targets, &space, &settings(starts));
     let one = run(1).unwrap();
     let two = run(2).unwrap();
     assert!(two.local_status.contains("of 2"), "{}", two.local_status);
@@ -214,14 +222,7 @@ fn several_local_starts_keep_the_best_and_zero_is_an_error() {
 fn the_swarm_inertia_schedule_is_argmins_swarm_with_the_weight_set_per_iteration() {
     use sim_periodic::fit::{SwarmSettings, constant_inertia};
     let geometry = geometry();
-    let space = paper_space(&geometry);
-    let truth = space.model(&[0.6, 0.4, 0.5, 0.5, 0.5]);
-    let targets = targets_of(&geometry, &truth, &[(Direction::Weft, 0.3)], 3);
-    let objective = ObjectiveSettings {
-        samples: 3,
-        compression_nodes: 2,
-        ..ObjectiveSettings::default()
-    };
+    let (space, targets, objective) = small_weft_case(&geometry);
     let run = |inertia: Option<(f64, f64)>| {
         let mut swarm = SwarmSettings {
             particles: 4,
@@ -239,14 +240,7 @@ fn the_swarm_inertia_schedule_is_argmins_swarm_with_the_weight_set_per_iteration
             local_evaluations: 1,
             ..FitSettings::default()
         };
-        fit(
-            &geometry,
-            &targets,
-            &space,
-            &settings,
-            &Journal::in_memory(),
-            &|_| {},
-        )
+        fit_in_memory(&geometry, &targets, &space, &settings)
     };
     let default = run(None).unwrap();
     let w = constant_inertia();
@@ -334,15 +328,7 @@ fn a_known_geometry_stretch_is_recovered_by_cobyla_and_kept_by_levenberg_marquar
     assert!(unstretched > 1e3 * at_truth.max(1e-9), "{unstretched:e}");
 
     let run = |space: &ParameterSpace, settings: &FitSettings| {
-        fit(
-            &geometry,
-            &targets,
-            space,
-            settings,
-            &Journal::in_memory(),
-            &|_| {},
-        )
-        .unwrap()
+        fit_in_memory(&geometry, &targets, space, settings).unwrap()
     };
 
     // COBYLA searches it (the swarm would too): from 0.95 back to 1.1.

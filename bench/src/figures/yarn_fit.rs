@@ -172,7 +172,8 @@ pub fn geometry_and_space(
 /// procedural proportions.
 ///
 /// Wider bounds were measured on the development fabric only, with [`LOCAL_STARTS`] starts
-/// (release, 2 cores): (0.6, 1.6) ends at g = 0.0787 against 0.0789 here (comfort-range error
+/// (release, 2 cores; reproducible with `sim-periodic fit` and its `geometry_x`, `geometry_y`
+/// bounds): (0.6, 1.6) ends at g = 0.0787 against 0.0789 here (comfort-range error
 /// 9.8 against 11.0 %), with a similar fitted stretch (0.99, 1.25 against 1.01, 1.31), and
 /// (0.5, 2.0) at g = 0.105 (14.3 %; the larger box is searched worse by the same swarm). Not
 /// adopted: no gain in `g` on the development fabric, although 10 of the 16 fitted stretches
@@ -206,11 +207,13 @@ pub fn with_fitted_geometry(space: ParameterSpace) -> anyhow::Result<ParameterSp
 /// and "fitted geometry, 3 LM starts"; measured there with the fitted geometry, release, 2
 /// cores): one start ends at g = 0.115 (comfort-range error 15.0 %), two at 0.088 (9.7 %),
 /// three at 0.079 (11.0 %) and five at the same point as three; the choice follows `g`, the
-/// fit's objective, not the comfort-range error. Each start costs one Levenberg–Marquardt run
-/// (16.1 s → 50.4 s on that fabric). A larger swarm instead (32 × 10 or 64 × 10 particles ×
-/// iterations, the paper's size) reached g = 0.091 and 0.092 at 2–4 × the cost, and the
-/// swarm's outcome varies with its size (g from 0.078 to 0.18 over five sizes), which the
-/// extra starts smooth out.
+/// fit's objective, not the comfort-range error. Each start costs one Levenberg–Marquardt run;
+/// the starts run in parallel (the ablation figure times the fit at 16 s with one start and
+/// 41 s with three). A larger swarm instead (32 × 10 or 64 × 10 particles × iterations, the
+/// paper's size) reached g = 0.091 and 0.092 at 2–4 × the cost, and the swarm's outcome
+/// varies with its size (g from 0.078 to 0.18 over five sizes), which the extra starts smooth
+/// out. The two-, five-start and swarm-size numbers are reproducible with `sim-periodic fit`
+/// (keys `local_starts`, `particles`, `swarm_iterations`) on this figure's targets.
 ///
 /// On the seven held-out fabrics (the committed full run, against one start): `g` fell on the
 /// acrylic rib (0.186 → 0.165) and seed (0.083 → 0.082), where another start won, and stayed

@@ -66,116 +66,70 @@ const PAPER_INERTIA: (f64, f64) = (0.9, 0.1);
 /// and then some; the paper fixes it to the stiffest yarn's.
 const K2_BOUNDS: (f64, f64) = (10.0, 1000.0);
 
+/// The default: swarm, then one Levenberg–Marquardt start, on the paper's parameter space and
+/// model; every variant changes one or two of these.
+const DEFAULT: Variant = Variant {
+    name: "swarm + LM (default)",
+    swarm: true,
+    local: LocalMethod::LevenbergMarquardt,
+    linear_stretch: false,
+    rest_shape: true,
+    free_k2: false,
+    free_geometry: false,
+    local_starts: 1,
+    paper_inertia: false,
+};
+
 const VARIANTS: [Variant; 10] = [
-    Variant {
-        name: "swarm + LM (default)",
-        swarm: true,
-        local: LocalMethod::LevenbergMarquardt,
-        linear_stretch: false,
-        rest_shape: true,
-        free_k2: false,
-        free_geometry: false,
-        local_starts: 1,
-        paper_inertia: false,
-    },
+    DEFAULT,
     Variant {
         name: "swarm + COBYLA (paper)",
-        swarm: true,
         local: LocalMethod::Cobyla,
-        linear_stretch: false,
-        rest_shape: true,
-        free_k2: false,
-        free_geometry: false,
-        local_starts: 1,
-        paper_inertia: false,
+        ..DEFAULT
     },
     Variant {
         name: "COBYLA, no swarm",
         swarm: false,
         local: LocalMethod::Cobyla,
-        linear_stretch: false,
-        rest_shape: true,
-        free_k2: false,
-        free_geometry: false,
-        local_starts: 1,
-        paper_inertia: false,
+        ..DEFAULT
     },
     Variant {
         name: "LM, no swarm",
         swarm: false,
-        local: LocalMethod::LevenbergMarquardt,
-        linear_stretch: false,
-        rest_shape: true,
-        free_k2: false,
-        free_geometry: false,
-        local_starts: 1,
-        paper_inertia: false,
+        ..DEFAULT
     },
     Variant {
         name: "linear stretch",
-        swarm: true,
-        local: LocalMethod::LevenbergMarquardt,
         linear_stretch: true,
-        rest_shape: true,
-        free_k2: false,
-        free_geometry: false,
-        local_starts: 1,
-        paper_inertia: false,
+        ..DEFAULT
     },
     Variant {
         name: "no rest shape",
-        swarm: true,
-        local: LocalMethod::LevenbergMarquardt,
-        linear_stretch: false,
         rest_shape: false,
-        free_k2: false,
-        free_geometry: false,
-        local_starts: 1,
-        paper_inertia: false,
+        ..DEFAULT
     },
     Variant {
         name: "free k2 (beyond the paper)",
-        swarm: true,
-        local: LocalMethod::LevenbergMarquardt,
-        linear_stretch: false,
-        rest_shape: true,
         free_k2: true,
-        free_geometry: false,
-        local_starts: 1,
-        paper_inertia: false,
+        ..DEFAULT
     },
     Variant {
         name: "fitted geometry (beyond the paper)",
-        swarm: true,
-        local: LocalMethod::LevenbergMarquardt,
-        linear_stretch: false,
-        rest_shape: true,
-        free_k2: false,
         free_geometry: true,
-        local_starts: 1,
-        paper_inertia: false,
+        ..DEFAULT
     },
     Variant {
         name: "fitted geometry, 3 LM starts (yarn-fit)",
-        swarm: true,
-        local: LocalMethod::LevenbergMarquardt,
-        linear_stretch: false,
-        rest_shape: true,
-        free_k2: false,
         free_geometry: true,
         local_starts: LOCAL_STARTS,
-        paper_inertia: false,
+        ..DEFAULT
     },
     Variant {
         name: "as yarn-fit, paper's swarm inertia 0.9 → 0.1",
-        swarm: true,
-        local: LocalMethod::LevenbergMarquardt,
-        linear_stretch: false,
-        rest_shape: true,
-        free_k2: false,
         free_geometry: true,
         local_starts: LOCAL_STARTS,
         paper_inertia: true,
+        ..DEFAULT
     },
 ];
 

@@ -561,21 +561,22 @@ pub fn fit(
                 .map(|s| {
                     let (x, status, count) = lm_search(&local, space, s, settings, progress)?;
                     if starts.len() == 1 {
-                        return Ok((0.0, x, status, count));
+                        return Ok((0.0, x, status, count, None));
                     }
                     let clamped: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
                     // A start whose end point cannot be evaluated loses to every other.
-                    let g = match local.evaluate_at(space, &clamped) {
-                        Ok(e) if !e.value.is_nan() => e.value,
-                        _ => f64::INFINITY,
+                    let (g, error) = match local.evaluate_at(space, &clamped) {
+                        Ok(e) if !e.value.is_nan() => (e.value, None),
+                        Ok(_) => (f64::INFINITY, None),
+                        Err(e) => (f64::INFINITY, Some(e.to_string())),
                     };
-                    Ok((g, x, status, count))
+                    Ok((g, x, status, count, error))
                 })
                 .collect();
             let mut best: Option<(f64, Vec<f64>, String)> = None;
             let mut total = 0;
             for (i, found) in searched.into_iter().enumerate() {
-                let (g, x, status, count) = match found {
+                let (g, x, status, count, error) = match found {
                     Ok(found) => found,
                     Err(e) if i > 0 => {
                         last_error = e.to_string();
@@ -584,6 +585,9 @@ pub fn fit(
                     Err(e) => return Err(e),
                 };
                 total += count;
+                if let Some(error) = error {
+                    last_error = error;
+                }
                 let status = if starts.len() == 1 {
                     status
                 } else {
@@ -618,8 +622,9 @@ pub fn fit(
 }
 
 /// One Levenberg–Marquardt start's outcome: its end point's local objective (0 when it is the
-/// only start), the end point, how it stopped and its iterations.
-type LocalRun = (f64, Vec<f64>, String, usize);
+/// only start), the end point, how it stopped, its iterations, and why its end point could not
+/// be evaluated, if it could not.
+type LocalRun = (f64, Vec<f64>, String, usize, Option<String>);
 
 /// COBYLA from `start`; returns the best point and how it stopped.
 fn cobyla_search(
