@@ -1,6 +1,6 @@
 //! Throughput of the per-stencil PSD projection (`rod::spd`): nalgebra's symmetric QR
-//! (`project_spd`, the one every solver uses) against the cyclic Jacobi method
-//! (`project_spd_jacobi`, its fallback), measured in the same run, on the stencil sizes of the
+//! (`project_spd_qr`, the garment simulator's damping forms) against the cyclic Jacobi method
+//! (`project_spd`, the Newton solvers'), measured in the same run, on the stencil sizes of the
 //! garment simulator's damping forms (8: sliding stretch, 9: crossing shear, 12: bending and
 //! wrapping). Inputs are indefinite like the Hessians they stand for: a random rotation of a
 //! spectrum with one or two negative eigenvalues of 10–10⁴, two zero ones (a free rigid
@@ -9,7 +9,7 @@
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use nalgebra::{DMatrix, SMatrix};
-use rod::spd::{project_spd, project_spd_jacobi};
+use rod::spd::{project_spd, project_spd_qr};
 use std::hint::black_box;
 
 /// `count` indefinite symmetric `N × N` matrices (see the file's documentation).
@@ -44,8 +44,8 @@ fn projection<const N: usize>(c: &mut Criterion) {
     let mut group = c.benchmark_group("spd-projection");
     group.throughput(Throughput::Elements(inputs.len() as u64));
     for (name, project) in [
-        ("symmetric-qr", project_spd as fn(&mut [f64], usize)),
-        ("cyclic-jacobi", project_spd_jacobi),
+        ("symmetric-qr", project_spd_qr as fn(&mut [f64], usize)),
+        ("cyclic-jacobi", project_spd),
     ] {
         group.bench_function(BenchmarkId::new(name, N), |b| {
             b.iter_batched_ref(

@@ -310,7 +310,7 @@ fn failed_steps_are_halved() {
 }
 
 /// Architecture invariant: results do not depend on the rayon thread count (stencils are
-/// evaluated in parallel into private slots and summed in stencil order).
+/// evaluated in parallel into private buffers and summed in stencil order).
 #[test]
 fn steps_are_bit_identical_for_one_and_two_threads() {
     let run = |threads: usize| {

@@ -12,13 +12,18 @@
 //! entry `(a, b)` of every local Hessian, the index of the CSC value it is added to. Each
 //! [`Assembler::assemble`] then
 //!
-//! 1. evaluates all stencils in parallel (rayon), each into its own preallocated slot, and
-//!    optionally projects each local Hessian onto the PSD cone (`rod::spd::project_spd`:
-//!    negative eigenvalues clamped to zero, Teran et al. 2005);
-//! 2. scatters the slots serially, in stencil order, into the gradient and the CSC values.
+//! 1. evaluates all stencils in parallel (rayon), each into its own preallocated part of
+//!    flat energy, gradient and Hessian buffers, and optionally projects each local Hessian
+//!    onto the PSD cone (`rod::spd::project_spd`: negative eigenvalues clamped to zero, Teran
+//!    et al. 2005);
+//! 2. sums the local pieces into the gradient and the CSC values by a gather, in parallel over
+//!    the outputs: every gradient entry and every CSC value has the list of the local entries
+//!    that land on it (computed once, with the pattern), in stencil order, and adds them in
+//!    that order.
 //!
-//! Step 1 touches no shared state and step 2 is serial, so the result is bit-identical for any
-//! number of threads.
+//! Step 1 touches no shared state and every sum in step 2 runs in stencil order, the order of
+//! a serial scatter, so the result is bit-identical for any number of threads (and to a
+//! serial scatter).
 //!
 //! **Storage.** The Hessian is stored as its **lower triangle** (row ≥ column) in CSC form, the
 //! input sparse Cholesky (`L Lᵀ`) expects; the diagonal is always part of the pattern (so that
@@ -79,12 +84,70 @@ pub trait Problem: Sync {
 /// Marks a local Hessian entry that is not stored (strict upper triangle or touches a fixed DOF).
 const SKIP: usize = usize::MAX;
 
-/// Preallocated output buffers of one stencil.
+/// Stencils per parallel evaluation task.
+const STENCIL_CHUNK: usize = 256;
+
+/// Outputs (gradient entries, CSC values) per parallel gather task.
+const GATHER_CHUNK: usize = 4096;
+
+/// Index of a local entry in the flat gradient or Hessian buffers (32 bits: the gather maps
+/// are the assembler's largest arrays).
+type Local = u32;
+
+/// For every output `o` (a gradient entry or a CSC value), the local entries summed into it:
+/// `sources[ptr[o]..ptr[o + 1]]`, increasing (stencil order).
 #[derive(Clone, Debug)]
-struct StencilSlot {
-    energy: f64,
-    grad: Vec<f64>,
-    hess: Vec<f64>,
+struct Gather {
+    ptr: Vec<usize>,
+    sources: Vec<Local>,
+}
+
+impl Gather {
+    /// The gather of `n_outputs` outputs from the map `target[local] = output` ([`SKIP`]:
+    /// none), by a counting sort that keeps the local entries in increasing order.
+    fn new(n_outputs: usize, target: &[usize]) -> Result<Self, SolveError> {
+        if target.len() > Local::MAX as usize {
+            return Err(SolveError::InvalidProblem(format!(
+                "{} local derivative entries exceed the assembler's {} limit",
+                target.len(),
+                Local::MAX
+            )));
+        }
+        let mut ptr = vec![0usize; n_outputs + 1];
+        for &t in target.iter().filter(|&&t| t != SKIP) {
+            ptr[t + 1] += 1;
+        }
+        for o in 0..n_outputs {
+            ptr[o + 1] += ptr[o];
+        }
+        let mut next = ptr.clone();
+        let mut sources = vec![0; ptr[n_outputs]];
+        for (local, &t) in target.iter().enumerate() {
+            if t != SKIP {
+                sources[next[t]] = local as Local;
+                next[t] += 1;
+            }
+        }
+        Ok(Self { ptr, sources })
+    }
+
+    /// `out[o] = Σ local[sources]` in the stored order, in parallel over fixed chunks of `out`.
+    fn sum_into(&self, local: &[f64], out: &mut [f64]) {
+        let (ptr, sources) = (&self.ptr, &self.sources);
+        out.par_chunks_mut(GATHER_CHUNK)
+            .enumerate()
+            .for_each(|(c, out)| {
+                let first = c * GATHER_CHUNK;
+                for (k, o) in out.iter_mut().enumerate() {
+                    let i = first + k;
+                    let mut sum = 0.0;
+                    for &l in &sources[ptr[i]..ptr[i + 1]] {
+                        sum += local[l as usize];
+                    }
+                    *o = sum;
+                }
+            });
+    }
 }
 
 /// The result of [`Assembler::assemble`], borrowing the assembler's buffers.
@@ -110,14 +173,20 @@ pub struct Assembler {
     /// DOFs of stencil `k`: `stencil_dofs[stencil_offsets[k]..stencil_offsets[k + 1]]`.
     stencil_offsets: Vec<usize>,
     stencil_dofs: Vec<usize>,
-    /// Target CSC value index (or [`SKIP`]) of local Hessian entry `a + m b` of stencil `k`:
-    /// `hess_target[hess_offsets[k] + a + m b]`.
+    /// Local Hessian entry `a + m b` of stencil `k` is `hess[hess_offsets[k] + a + m b]`.
     hess_offsets: Vec<usize>,
-    hess_target: Vec<usize>,
+    /// How the gradient entries gather the local gradients.
+    grad_gather: Gather,
+    /// How the CSC values gather the local Hessian entries.
+    hess_gather: Gather,
     /// CSC value index of the diagonal entry of each free DOF.
     diag_slots: Vec<usize>,
     max_stencil_len: usize,
-    slots: Vec<StencilSlot>,
+    /// Per-stencil outputs of the last evaluation: energies, local gradients (laid out as
+    /// `stencil_dofs`) and local Hessians (laid out by `hess_offsets`).
+    energies: Vec<f64>,
+    local_grads: Vec<f64>,
+    local_hess: Vec<f64>,
     energy: f64,
     energy_abs_sum: f64,
     gradient: Vec<f64>,
@@ -192,17 +261,8 @@ impl Assembler {
         }
         let diag_slots = slot_of[..n_free].to_vec();
         let nnz = symbolic.row_idx().len();
-
-        let slots = (0..n_stencils)
-            .map(|k| {
-                let m = stencil_offsets[k + 1] - stencil_offsets[k];
-                StencilSlot {
-                    energy: 0.0,
-                    grad: vec![0.0; m],
-                    hess: vec![0.0; m * m],
-                }
-            })
-            .collect();
+        let hess_gather = Gather::new(nnz, &hess_target)?;
+        let grad_gather = Gather::new(n_dofs, &stencil_dofs)?;
         let max_stencil_len = (0..n_stencils)
             .map(|k| stencil_offsets[k + 1] - stencil_offsets[k])
             .max()
@@ -212,13 +272,16 @@ impl Assembler {
             n_dofs,
             free_index,
             n_free,
+            energies: vec![0.0; n_stencils],
+            local_grads: vec![0.0; stencil_dofs.len()],
+            local_hess: vec![0.0; hess_target.len()],
             stencil_offsets,
             stencil_dofs,
             hess_offsets,
-            hess_target,
+            grad_gather,
+            hess_gather,
             diag_slots,
             max_stencil_len,
-            slots,
             energy: 0.0,
             energy_abs_sum: 0.0,
             gradient: vec![0.0; n_dofs],
@@ -260,17 +323,9 @@ impl Assembler {
             )));
         }
         self.evaluate(problem, x, Some(project_spd));
-        self.scatter_gradient();
-        let values = self.hessian.val_mut();
-        values.fill(0.0);
-        for (k, slot) in self.slots.iter().enumerate() {
-            let targets = &self.hess_target[self.hess_offsets[k]..self.hess_offsets[k + 1]];
-            for (&target, &h) in targets.iter().zip(&slot.hess) {
-                if target != SKIP {
-                    values[target] += h;
-                }
-            }
-        }
+        self.gather_gradient();
+        self.hess_gather
+            .sum_into(&self.local_hess, self.hessian.val_mut());
         Ok(Assembled {
             energy: self.energy,
             gradient: &self.gradient,
@@ -286,21 +341,27 @@ impl Assembler {
     ) -> Result<(f64, &[f64]), SolveError> {
         self.check_inputs(problem, x)?;
         self.evaluate(problem, x, None);
-        self.scatter_gradient();
+        self.gather_gradient();
         Ok((self.energy, &self.gradient))
     }
 
     /// Energy at `x` only (the cheap evaluation line searches need). Stencils are evaluated in
-    /// parallel and summed serially in stencil order, so the result is thread-count independent.
+    /// parallel (fixed chunks) and summed serially in stencil order, so the result is
+    /// thread-count independent.
     pub fn energy<P: Problem + ?Sized>(
         &mut self,
         problem: &P,
         x: &[f64],
     ) -> Result<f64, SolveError> {
         self.check_inputs(problem, x)?;
-        self.slots.par_iter_mut().enumerate().for_each(|(k, slot)| {
-            slot.energy = problem.stencil_energy(k, x);
-        });
+        self.energies
+            .par_chunks_mut(STENCIL_CHUNK)
+            .enumerate()
+            .for_each(|(c, energies)| {
+                for (i, e) in energies.iter_mut().enumerate() {
+                    *e = problem.stencil_energy(c * STENCIL_CHUNK + i, x);
+                }
+            });
         self.sum_energies();
         Ok(self.energy)
     }
@@ -343,62 +404,84 @@ impl Assembler {
     /// Validates `x` and that `problem` still has the stencils the pattern was built for.
     fn check_inputs<P: Problem + ?Sized>(&self, problem: &P, x: &[f64]) -> Result<(), SolveError> {
         check_len("x", self.n_dofs, x.len())?;
-        if problem.n_dofs() != self.n_dofs || problem.n_stencils() != self.slots.len() {
+        let n_stencils = self.energies.len();
+        if problem.n_dofs() != self.n_dofs || problem.n_stencils() != n_stencils {
             return Err(SolveError::PatternChanged(format!(
                 "built for {} DOFs / {} stencils, got {} / {}",
                 self.n_dofs,
-                self.slots.len(),
+                n_stencils,
                 problem.n_dofs(),
                 problem.n_stencils()
             )));
         }
-        for k in 0..self.slots.len() {
-            let stored = &self.stencil_dofs[self.stencil_offsets[k]..self.stencil_offsets[k + 1]];
-            if problem.stencil_dofs(k) != stored {
-                return Err(SolveError::PatternChanged(format!(
-                    "DOFs of stencil {k} changed"
-                )));
-            }
-        }
-        Ok(())
-    }
-
-    /// Evaluates every stencil into its own slot, in parallel. `hessian`: `None` for energy and
-    /// gradient only, `Some(project_spd)` to also compute (and optionally project) the Hessian.
-    fn evaluate<P: Problem + ?Sized>(&mut self, problem: &P, x: &[f64], hessian: Option<bool>) {
-        self.slots.par_iter_mut().enumerate().for_each(|(k, slot)| {
-            slot.grad.fill(0.0);
-            slot.energy = match hessian {
-                None => problem.eval_stencil(k, x, &mut slot.grad, None),
-                Some(project) => {
-                    slot.hess.fill(0.0);
-                    let e = problem.eval_stencil(k, x, &mut slot.grad, Some(&mut slot.hess));
-                    if project {
-                        // Sizes are checked in `assemble` (rod asserts n ≤ MAX_PROJECT_DIM).
-                        project_spd(&mut slot.hess, slot.grad.len());
-                    }
-                    e
-                }
-            };
+        let changed = (0..n_stencils).into_par_iter().position_first(|k| {
+            problem.stencil_dofs(k)
+                != &self.stencil_dofs[self.stencil_offsets[k]..self.stencil_offsets[k + 1]]
         });
-    }
-
-    /// Serial, stencil-ordered sum of the slot energies.
-    fn sum_energies(&mut self) {
-        self.energy = self.slots.iter().map(|s| s.energy).sum();
-        self.energy_abs_sum = self.slots.iter().map(|s| s.energy.abs()).sum();
-    }
-
-    /// Serial, stencil-ordered scatter of the slot energies and gradients.
-    fn scatter_gradient(&mut self) {
-        self.sum_energies();
-        self.gradient.fill(0.0);
-        for (k, slot) in self.slots.iter().enumerate() {
-            let dofs = &self.stencil_dofs[self.stencil_offsets[k]..self.stencil_offsets[k + 1]];
-            for (&dof, &g) in dofs.iter().zip(&slot.grad) {
-                self.gradient[dof] += g;
-            }
+        match changed {
+            Some(k) => Err(SolveError::PatternChanged(format!(
+                "DOFs of stencil {k} changed"
+            ))),
+            None => Ok(()),
         }
+    }
+
+    /// Evaluates every stencil into its own part of the flat buffers, in parallel over fixed
+    /// chunks of stencils. `hessian`: `None` for energy and gradient only, `Some(project_spd)`
+    /// to also compute (and optionally project) the Hessian.
+    fn evaluate<P: Problem + ?Sized>(&mut self, problem: &P, x: &[f64], hessian: Option<bool>) {
+        // Split the flat buffers at the chunk boundaries.
+        let n_stencils = self.energies.len();
+        let (so, ho) = (&self.stencil_offsets, &self.hess_offsets);
+        let mut tasks = Vec::with_capacity(n_stencils.div_ceil(STENCIL_CHUNK));
+        let (mut energies, mut grads, mut hess) = (
+            &mut self.energies[..],
+            &mut self.local_grads[..],
+            &mut self.local_hess[..],
+        );
+        for first in (0..n_stencils).step_by(STENCIL_CHUNK) {
+            let end = (first + STENCIL_CHUNK).min(n_stencils);
+            let (e, e_rest) = energies.split_at_mut(end - first);
+            let (g, g_rest) = grads.split_at_mut(so[end] - so[first]);
+            let (h, h_rest) = hess.split_at_mut(ho[end] - ho[first]);
+            tasks.push((first, e, g, h));
+            (energies, grads, hess) = (e_rest, g_rest, h_rest);
+        }
+        tasks
+            .into_par_iter()
+            .for_each(|(first, energies, grads, hess)| {
+                for (i, energy) in energies.iter_mut().enumerate() {
+                    let k = first + i;
+                    let grad = &mut grads[so[k] - so[first]..so[k + 1] - so[first]];
+                    grad.fill(0.0);
+                    *energy = match hessian {
+                        None => problem.eval_stencil(k, x, grad, None),
+                        Some(project) => {
+                            let h = &mut hess[ho[k] - ho[first]..ho[k + 1] - ho[first]];
+                            h.fill(0.0);
+                            let e = problem.eval_stencil(k, x, grad, Some(&mut *h));
+                            if project {
+                                // Sizes are checked in `assemble` (rod asserts n ≤ MAX_PROJECT_DIM).
+                                project_spd(h, grad.len());
+                            }
+                            e
+                        }
+                    };
+                }
+            });
+    }
+
+    /// Serial, stencil-ordered sum of the stencil energies.
+    fn sum_energies(&mut self) {
+        self.energy = self.energies.iter().sum();
+        self.energy_abs_sum = self.energies.iter().map(|e| e.abs()).sum();
+    }
+
+    /// The total energy and the gradient gathered from the local gradients.
+    fn gather_gradient(&mut self) {
+        self.sum_energies();
+        self.grad_gather
+            .sum_into(&self.local_grads, &mut self.gradient);
     }
 }
 

@@ -21,8 +21,9 @@
 //! - **Fixed pattern.** The sparsity pattern, the scatter map from every local Hessian entry
 //!   into the CSC value array and the symbolic factorization are computed once per solver and
 //!   reused for every iteration (and every later solve with the same stencils).
-//! - **Determinism.** Stencils are evaluated in parallel into private slots and summed
-//!   serially in stencil order; the sparse factorizations (and the IC(0) preconditioner)
+//! - **Determinism.** Stencils are evaluated in parallel into private parts of flat buffers,
+//!   and every output sums its local pieces in stencil order (a gather, parallel over the
+//!   outputs); the sparse factorizations (and the IC(0) preconditioner)
 //!   run sequentially, and the conjugate gradients sum in fixed chunks. Results are
 //!   bit-identical for any rayon thread count.
 //! - **Loud failure.** Bad input is an `Err`, never a panic; a minimization that does not

@@ -32,6 +32,11 @@ use rayon::prelude::*;
 
 use crate::SolveError;
 
+/// Row and column indices of the CG matrix and the IC(0) factor: 32 bits, since the products
+/// and triangular solves are bound by memory traffic (8 + 4 instead of 8 + 8 bytes per stored
+/// entry); [`Pcg::new`] rejects systems of more than `u32::MAX` unknowns.
+type Index = u32;
+
 /// Rows (or vector entries) per parallel task; fixed so that summation order, and hence the
 /// result, does not depend on the thread count.
 const CHUNK: usize = 4096;
@@ -119,7 +124,8 @@ pub struct Pcg {
     lower_nnz: usize,
     /// Full symmetric matrix in CSR form: row `i` has entries `row_ptr[i]..row_ptr[i + 1]`.
     row_ptr: Vec<usize>,
-    col_idx: Vec<usize>,
+    /// Column of each entry (32-bit: a quarter less memory traffic per product, see [`Index`]).
+    col_idx: Vec<Index>,
     /// Index into the lower-triangle value array of each full entry.
     source: Vec<usize>,
     /// Index into the lower-triangle value array of each diagonal entry (`usize::MAX`: none).
@@ -139,6 +145,12 @@ impl Pcg {
     /// pattern of `lower` (entries above the diagonal are ignored).
     pub fn new(lower: SparseColMatRef<'_, usize, f64>) -> Result<Self, SolveError> {
         let n = lower.nrows();
+        if n > Index::MAX as usize {
+            return Err(SolveError::InvalidProblem(format!(
+                "PCG supports at most {} unknowns, got {n}",
+                Index::MAX
+            )));
+        }
         if lower.ncols() != n {
             return Err(SolveError::DimensionMismatch {
                 what: "PCG matrix columns",
@@ -167,7 +179,7 @@ impl Pcg {
         }
         let row_ptr = count.clone();
         let nnz = row_ptr[n];
-        let mut col_idx = vec![0usize; nnz];
+        let mut col_idx: Vec<Index> = vec![0; nnz];
         let mut source = vec![0usize; nnz];
         let mut next = count;
         // Columns in increasing order, so every row's entries come out sorted by column.
@@ -175,7 +187,7 @@ impl Pcg {
             for e in col_ptr[j]..col_ptr[j + 1] {
                 let i = row_idx[e];
                 if i >= j {
-                    col_idx[next[i]] = j;
+                    col_idx[next[i]] = j as Index;
                     source[next[i]] = e;
                     next[i] += 1;
                 }
@@ -187,7 +199,7 @@ impl Pcg {
             for e in col_ptr[j]..col_ptr[j + 1] {
                 let i = row_idx[e];
                 if i > j {
-                    col_idx[next[j]] = i;
+                    col_idx[next[j]] = i as Index;
                     source[next[j]] = e;
                     next[j] += 1;
                 }
@@ -423,7 +435,7 @@ impl Pcg {
                 let i = first + k;
                 let mut s = mu * p[i];
                 for e in row_ptr[i]..row_ptr[i + 1] {
-                    s += values[e] * p[col_idx[e]];
+                    s += values[e] * p[col_idx[e] as usize];
                 }
                 *qi = s;
             }
@@ -445,7 +457,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 #[derive(Clone, Debug)]
 struct IncompleteCholesky {
     col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
+    row_idx: Vec<Index>,
     values: Vec<f64>,
     /// `marker[i]`: value index of row `i` in the column being updated (`usize::MAX`: none).
     marker: Vec<usize>,
@@ -456,10 +468,13 @@ impl IncompleteCholesky {
     fn new(lower: SparseColMatRef<'_, usize, f64>) -> Result<Self, PcgFailure> {
         let n = lower.ncols();
         let col_ptr = lower.col_ptr()[..=n].to_vec();
-        let row_idx = lower.row_idx()[..col_ptr[n]].to_vec();
+        let row_idx: Vec<Index> = lower.row_idx()[..col_ptr[n]]
+            .iter()
+            .map(|&i| i as Index)
+            .collect();
         for j in 0..n {
             let entries = &row_idx[col_ptr[j]..col_ptr[j + 1]];
-            if entries.first() != Some(&j) || entries.windows(2).any(|w| w[0] >= w[1]) {
+            if entries.first() != Some(&(j as Index)) || entries.windows(2).any(|w| w[0] >= w[1]) {
                 return Err(PcgFailure::Input(format!(
                     "IC(0) needs sorted lower-triangle columns starting with the diagonal \
                      (column {j})"
@@ -509,19 +524,19 @@ impl IncompleteCholesky {
                 values[e] /= lkk;
             }
             for e1 in cp[k] + 1..cp[k + 1] {
-                let j = ri[e1];
+                let j = ri[e1] as usize;
                 let ljk = values[e1];
                 for f in cp[j]..cp[j + 1] {
-                    marker[ri[f]] = f;
+                    marker[ri[f] as usize] = f;
                 }
                 for e2 in e1..cp[k + 1] {
-                    let f = marker[ri[e2]];
+                    let f = marker[ri[e2] as usize];
                     if f != usize::MAX {
                         values[f] -= values[e2] * ljk;
                     }
                 }
                 for f in cp[j]..cp[j + 1] {
-                    marker[ri[f]] = usize::MAX;
+                    marker[ri[f] as usize] = usize::MAX;
                 }
             }
         }
@@ -537,13 +552,13 @@ impl IncompleteCholesky {
             let zj = z[j] / v[cp[j]];
             z[j] = zj;
             for e in cp[j] + 1..cp[j + 1] {
-                z[ri[e]] -= v[e] * zj;
+                z[ri[e] as usize] -= v[e] * zj;
             }
         }
         for j in (0..n).rev() {
             let mut s = z[j];
             for e in cp[j] + 1..cp[j + 1] {
-                s -= v[e] * z[ri[e]];
+                s -= v[e] * z[ri[e] as usize];
             }
             z[j] = s / v[cp[j]];
         }

@@ -94,7 +94,8 @@ fn fill<S, const N: usize, const PROJECT: bool>(
     let local = SVector::<f64, N>::from_fn(|i, _| q[dofs[i]]);
     let mut h = s.eval(&local).hessian;
     if PROJECT {
-        rod::spd::project_spd_matrix(&mut h);
+        // The fast eigensolver: these forms are refilled for every stencil of the garment.
+        rod::spd::project_spd_qr(h.as_mut_slice(), N);
     }
     out.matrix = factor * h;
     out.center = local;
