@@ -127,7 +127,7 @@ impl StepSettings {
     /// [`CARRIED_SHIFT_PROBE_INTERVAL`]-th Newton run, which is every 10th step where no step
     /// is halved) is faster where the needed shift stays put, but it is not the default,
     /// because where the shift varies it takes far larger shifts than needed (measured: on
-    /// the 1 M-DoF sweater 4.9 → 3.4 s per step over 10 steps with one β refresh, the same
+    /// the 1 M-DoF sweater 3.9 → 2.5 s per step over 10 steps with one β refresh, the same
     /// residual after the step; on the hat of `persistent-time-vs-error`'s garment study the RMS node
     /// error after 0.05 s rose from 0.83 / 1.25 / 3.33 R to 3.13 / 9.08 / 4.54 R at
     /// dt = 0.5 / 1 / 2 ms).
