@@ -8,7 +8,7 @@
 //! Two eigensolvers, the same projection to ~1e-14 relative (both backward stable; tested):
 //!
 //! - [`project_spd`], cyclic Jacobi: the Newton solvers' projection (`solver::Assembler`);
-//! - [`project_spd_qr`], nalgebra's symmetric QR on a stack matrix of the exact size, 3.3–4.4×
+//! - [`project_spd_qr`], nalgebra's symmetric QR on a stack matrix of the exact size, 3.3–4.3×
 //!   faster (`cargo bench -p rod --bench spd` measures both in one run): where many stencils
 //!   are projected outside a Newton direction, as in the garment simulator's Rayleigh-β
 //!   damping forms.
@@ -26,12 +26,12 @@ use nalgebra::{DMatrix, SMatrix, SymmetricEigen};
 /// Largest dense size the slice projection handles (stack scratch, no allocation).
 pub const MAX_PROJECT_DIM: usize = 32;
 
-/// Iteration cap of the implicit QR sweeps (nalgebra counts one per deflation step; a 32 × 32
-/// matrix needs a few dozen). Past it the cyclic Jacobi fallback takes over.
+/// Iteration cap of nalgebra's implicit QR (it counts one per sweep over the unreduced
+/// tridiagonal block; a 32 × 32 matrix needs a few dozen). Past it the cyclic Jacobi fallback takes over.
 const MAX_QR_ITERATIONS: usize = 10_000;
 
 /// [`project_spd`] through nalgebra's [`SymmetricEigen`] (Householder tridiagonalization and
-/// implicit symmetric QR with Wilkinson shifts) on a stack matrix of the exact size, 3.3–4.4×
+/// implicit symmetric QR with Wilkinson shifts) on a stack matrix of the exact size, 3.3–4.3×
 /// faster (module documentation). Should the QR iteration not converge within its cap, the
 /// Jacobi method is the fallback. A non-finite input gives a non-finite output (the solvers
 /// reject it).
@@ -106,27 +106,22 @@ fn symmetrize(h: &mut [f64], n: usize) {
 }
 
 /// `H ← Σ_k max(λ_k, 0) v_k v_kᵀ` from the eigenvalues `values` and the column-major
-/// eigenvectors `vectors` of the symmetric `H`; leaves `H` as it is when no eigenvalue is
-/// negative.
+/// eigenvectors `vectors` of the symmetric `H`, entry by entry as `Σ_k (v_ik λ_k) v_jk` (the
+/// arithmetic the Jacobi projection always used, so its results stay bit for bit); leaves `H`
+/// as it is when no eigenvalue is negative.
 fn clamp_eigenvalues(h: &mut [f64], n: usize, values: &[f64], vectors: &[f64]) {
     if values.iter().all(|&l| l >= 0.0) {
         return;
     }
-    h.fill(0.0);
-    for (k, &lambda) in values.iter().enumerate() {
-        if lambda > 0.0 {
-            let v = &vectors[n * k..n * (k + 1)];
-            for j in 0..n {
-                let s = lambda * v[j];
-                for i in j..n {
-                    h[i + n * j] += v[i] * s;
+    for j in 0..n {
+        for i in 0..n {
+            let mut s = 0.0;
+            for (k, &lambda) in values.iter().enumerate() {
+                if lambda > 0.0 {
+                    s += vectors[i + n * k] * lambda * vectors[j + n * k];
                 }
             }
-        }
-    }
-    for j in 0..n {
-        for i in 0..j {
-            h[i + n * j] = h[j + n * i];
+            h[i + n * j] = s;
         }
     }
 }
@@ -207,6 +202,29 @@ fn jacobi_eigen(a: &mut [f64], v: &mut [f64], n: usize) {
 mod tests {
     use super::*;
 
+    /// Uniform numbers in [−½, ½) from a xorshift64 stream.
+    fn xorshift(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        }
+    }
+
+    /// A symmetric `n × n` matrix (column-major) of the stream's numbers, column by column.
+    fn random_symmetric(rnd: &mut impl FnMut() -> f64, n: usize) -> Vec<f64> {
+        let mut h = vec![0.0; n * n];
+        for j in 0..n {
+            for i in 0..=j {
+                let x = rnd();
+                h[i + n * j] = x;
+                h[j + n * i] = x;
+            }
+        }
+        h
+    }
+
     #[test]
     fn psd_input_is_unchanged() {
         let mut h = [4.0, 1.0, 0.0, 1.0, 3.0, 0.5, 0.0, 0.5, 2.0];
@@ -232,21 +250,7 @@ mod tests {
     #[test]
     fn random_12x12_projection_is_psd_and_idempotent() {
         let n = 12;
-        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-        let mut rnd = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
-        let mut h = vec![0.0; n * n];
-        for j in 0..n {
-            for i in 0..=j {
-                let x = rnd();
-                h[i + n * j] = x;
-                h[j + n * i] = x;
-            }
-        }
+        let mut h = random_symmetric(&mut xorshift(0x2545_f491_4f6c_dd1d), n);
         let before = symmetric_eigenvalues(&h, n);
         assert!(before[0] < 0.0, "test matrix should be indefinite");
         project_spd(&mut h, n);
@@ -268,22 +272,9 @@ mod tests {
 
     #[test]
     fn symmetric_qr_and_cyclic_jacobi_agree_on_every_size() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut rnd = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rnd = xorshift(0x9e37_79b9_7f4a_7c15);
         for n in 1..=MAX_PROJECT_DIM {
-            let mut h = vec![0.0; n * n];
-            for j in 0..n {
-                for i in 0..=j {
-                    let x = rnd();
-                    h[i + n * j] = x;
-                    h[j + n * i] = x;
-                }
-            }
+            let h = random_symmetric(&mut rnd, n);
             let (mut qr, mut jacobi) = (h.clone(), h.clone());
             project_spd_qr(&mut qr, n);
             project_spd(&mut jacobi, n);

@@ -32,9 +32,9 @@ use rayon::prelude::*;
 
 use crate::SolveError;
 
-/// Row and column indices of the CG matrix and the IC(0) factor: 32 bits, since the products
-/// and triangular solves are bound by memory traffic (8 + 4 instead of 8 + 8 bytes per stored
-/// entry); [`Pcg::new`] rejects systems of more than `u32::MAX` unknowns.
+/// Row and column indices of the CG matrix and the IC(0) factor: 32 bits, so that every
+/// product and triangular solve reads 8 + 4 instead of 8 + 8 bytes per stored entry;
+/// [`Pcg::new`] rejects systems of more than `u32::MAX` unknowns.
 type Index = u32;
 
 /// Rows (or vector entries) per parallel task; fixed so that summation order, and hence the
@@ -124,7 +124,7 @@ pub struct Pcg {
     lower_nnz: usize,
     /// Full symmetric matrix in CSR form: row `i` has entries `row_ptr[i]..row_ptr[i + 1]`.
     row_ptr: Vec<usize>,
-    /// Column of each entry (32-bit: a quarter less memory traffic per product, see [`Index`]).
+    /// Column of each entry (32-bit, see [`Index`]).
     col_idx: Vec<Index>,
     /// Index into the lower-triangle value array of each full entry.
     source: Vec<usize>,

@@ -91,11 +91,13 @@ fn newton_solve_is_bit_identical_for_one_and_two_threads() {
 
 /// The parallel gather adds every gradient entry's and every Hessian value's local pieces in
 /// stencil order: bit for bit what a serial scatter in stencil order gives, on a network large
-/// enough for many evaluation and gather chunks (6000 DOFs, 5999 + 6000 stencils, projected).
+/// enough for many evaluation and gather chunks (6000 DOFs; 7999 springs and 2000 load
+/// stencils; projected).
 #[test]
 fn assembly_equals_a_serial_scatter_in_stencil_order_bit_for_bit() {
     let (net, x) = random_net_of(2000, 6000, 0xfeed);
     let n = net.n_dofs();
+    assert_eq!((n, net.n_stencils()), (6000, 9999));
     let mut asm = Assembler::new(&net).unwrap();
     let out = asm.assemble(&net, &x, true).unwrap();
     let (col_ptr, row_idx) = (out.hessian.col_ptr(), out.hessian.row_idx());
