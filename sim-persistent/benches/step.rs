@@ -10,7 +10,9 @@
 //! `examples/scaling.rs` covers larger sizes (≥ 1e5 DoFs) and splits a step into its
 //! phases; sizes here stop at 48 × 48 (≈ 3 s a step) to keep a full run short. Besides the
 //! default step (full Newton, sparse Cholesky) the 32 × 32 garter is also timed with
-//! linearized implicit Euler and IC(0)-preconditioned CG (`garter-linear-ic`) and with
+//! linearized implicit Euler and IC(0)-preconditioned CG (`garter-linear-ic`), the same with
+//! every CG solve started from the previous step's solution (`garter-linear-ic-guess`,
+//! `StepSettings::warm_started_cg`) and with
 //! linearized implicit Euler, Cholesky and Rayleigh-β matrices refreshed every 10 steps
 //! (`garter-linear-chol-lag`).
 
@@ -46,21 +48,28 @@ fn hanging(chart: &Chart, adjust: fn(StepSettings) -> StepSettings) -> Simulator
     sim
 }
 
+/// Linearized implicit Euler with IC(0)-preconditioned CG at relative tolerance 1e-6.
+fn linear_ic(s: StepSettings) -> StepSettings {
+    let mut s = s.linearized_implicit_euler();
+    s.newton.linear_solver = LinearSolver::ConjugateGradient(PcgSettings::new(
+        1e-6,
+        20_000,
+        Preconditioner::IncompleteCholesky,
+    ));
+    s
+}
+
+/// [`linear_ic`] with every CG solve started from the previous step's solution.
+fn linear_ic_guess(s: StepSettings) -> StepSettings {
+    linear_ic(s).warm_started_cg()
+}
+
 fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("implicit step, dt = 1 ms");
     group.sample_size(10);
     group.warm_up_time(Duration::from_millis(500));
     group.measurement_time(Duration::from_secs(3));
     let default: fn(StepSettings) -> StepSettings = |s| s;
-    let linear_ic: fn(StepSettings) -> StepSettings = |s| {
-        let mut s = s.linearized_implicit_euler();
-        s.newton.linear_solver = LinearSolver::ConjugateGradient(PcgSettings {
-            relative_tolerance: 1e-6,
-            max_iterations: 20_000,
-            preconditioner: Preconditioner::IncompleteCholesky,
-        });
-        s
-    };
     let linear_chol_lag: fn(StepSettings) -> StepSettings = |s| StepSettings {
         damping_refresh_steps: 10,
         ..s.linearized_implicit_euler()
@@ -73,6 +82,7 @@ fn bench(c: &mut Criterion) {
         ("stockinette", 16, default),
         ("stockinette", 32, default),
         ("garter-linear-ic", 32, linear_ic),
+        ("garter-linear-ic-guess", 32, linear_ic_guess),
         ("garter-linear-chol-lag", 32, linear_chol_lag),
     ] {
         let chart = match pattern {

@@ -40,6 +40,9 @@
 //!   where the needed shift stays put, as on the sweater, but not a default, because where it
 //!   varies the steps take far larger shifts than needed and lose accuracy (measured in
 //!   [`StepSettings::linearized_implicit_euler`]'s documentation);
+//! - `linear-ic-lag-3-warm-guess`: `linear-ic-lag-3-warm` with every CG solve started from
+//!   the previous step's solution instead of zero
+//!   ([`StepSettings::warm_started_cg`]);
 //! - `linear-ic-lag-3`, `linear-ic-lag-2`: `linear-ic-lag` with a CG tolerance of 1e-3 and
 //!   1e-2 (the linearization itself leaves ≈ 10–15 % of the step's initial residual, see the
 //!   `res/res0` column, and it is the same at all three tolerances).
@@ -47,7 +50,10 @@
 //! Printed per size and configuration: DoFs (all coordinates, pinned ones included, as the
 //! paper counts them), mean wall time per step and its split into setup (integrator:
 //! inertia and damping forms, friction limits), assembly, linear solve and line search
-//! (measured inside Newton, [`solver::NewtonTimings`]), Newton and CG iterations per step,
+//! (measured inside Newton, [`solver::NewtonTimings`]), Newton iterations, linear solves of
+//! the last substep (failed attempts at too small a diagonal shift included; shifts that a
+//! known direction of negative curvature rejects without a solve not, see
+//! `solver::NewtonReport::shifts_skipped`) and CG iterations of the accepted solves per step,
 //! the gradient residual after the step relative to its value at `qₙ` (the linearization
 //! error of the linearized steps; below 1e-9 for converged Newton), DoF-steps per second and
 //! the peak resident memory of the size (`VmHWM`, reset per size through
@@ -81,7 +87,7 @@ struct Config {
 const JACOBI: Preconditioner = Preconditioner::Jacobi;
 const IC0: Preconditioner = Preconditioner::IncompleteCholesky;
 
-const CONFIGS: [Config; 13] = [
+const CONFIGS: [Config; 14] = [
     Config {
         name: "newton-chol",
         linearized: false,
@@ -173,6 +179,13 @@ const CONFIGS: [Config; 13] = [
         damping_refresh_steps: 10,
         warm: true,
     },
+    Config {
+        name: "linear-ic-lag-3-warm-guess",
+        linearized: true,
+        pcg: Some((1e-3, IC0)),
+        damping_refresh_steps: 10,
+        warm: true,
+    },
 ];
 
 impl Config {
@@ -197,6 +210,7 @@ impl Config {
                 relative_tolerance: tol,
                 max_iterations: 20_000,
                 preconditioner,
+                warm_start: self.name.ends_with("-guess"),
             });
         }
         s
@@ -289,6 +303,11 @@ fn measure(scene: Scene, n: usize, config: &Config, steps: usize) {
     };
     let iterations = mean(&|r| r.newton_iterations as f64);
     let cg = mean(&|r| r.linear_iterations as f64);
+    let solves = mean(&|r| {
+        r.last_newton
+            .as_ref()
+            .map_or(0.0, |nr| nr.linear_solves as f64)
+    });
     let substeps = mean(&|r| r.substeps as f64);
     let setup = mean(&|r| r.setup_seconds);
     let assembly = timing(&|t| t.assembly);
@@ -303,7 +322,7 @@ fn measure(scene: Scene, n: usize, config: &Config, steps: usize) {
     let ms = |x: f64| 1e3 * x;
     println!(
         "{:<15} {n:>4} {n_dofs:>8} {build:>7.2} {warmup:>8.2} {:>9.1} {:>8.1} {:>8.1} {:>8.1} \
-         {:>7.1} {iterations:>5.1} {cg:>7.0} {residual:>9.1e} {:>11.3e} {:>8}",
+         {:>7.1} {iterations:>5.1} {solves:>6.1} {cg:>7.0} {residual:>9.1e} {:>11.3e} {:>8}",
         config.name,
         ms(per_step),
         ms(setup),
@@ -363,7 +382,7 @@ fn main() {
          (a 30 fps frame is 33 steps)"
     );
     println!(
-        "{:<15} {:>4} {:>8} {:>7} {:>8} {:>9} {:>8} {:>8} {:>8} {:>7} {:>5} {:>7} {:>9} {:>11} {:>8}",
+        "{:<15} {:>4} {:>8} {:>7} {:>8} {:>9} {:>8} {:>8} {:>8} {:>7} {:>5} {:>6} {:>7} {:>9} {:>11} {:>8}",
         "config",
         "n",
         "DoFs",
@@ -375,6 +394,7 @@ fn main() {
         "solve",
         "search",
         "iters",
+        "solves",
         "CG its",
         "res/res0",
         "DoF-steps/s",

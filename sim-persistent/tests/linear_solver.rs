@@ -35,6 +35,7 @@ fn pcg(relative_tolerance: f64, preconditioner: Preconditioner) -> LinearSolver 
         relative_tolerance,
         max_iterations: 20_000,
         preconditioner,
+        warm_start: false,
     })
 }
 

@@ -191,6 +191,8 @@ pub struct Assembler {
     energy_abs_sum: f64,
     gradient: Vec<f64>,
     hessian: SparseColMat<usize, f64>,
+    /// Hessians assembled so far (tells a back end that the matrix changed).
+    hessian_count: u64,
 }
 
 impl Assembler {
@@ -286,6 +288,7 @@ impl Assembler {
             energy_abs_sum: 0.0,
             gradient: vec![0.0; n_dofs],
             hessian: SparseColMat::new(symbolic, vec![0.0; nnz]),
+            hessian_count: 0,
         })
     }
 
@@ -326,6 +329,7 @@ impl Assembler {
         self.gather_gradient();
         self.hess_gather
             .sum_into(&self.local_hess, self.hessian.val_mut());
+        self.hessian_count += 1;
         Ok(Assembled {
             energy: self.energy,
             gradient: &self.gradient,
@@ -376,6 +380,13 @@ impl Assembler {
     /// [`assemble`](Self::assemble).
     pub fn hessian(&self) -> SparseColMatRef<'_, usize, f64> {
         self.hessian.as_ref()
+    }
+
+    /// How many Hessians [`assemble`](Self::assemble) has built: changes whenever the
+    /// Hessian does (the in-place shifts of [`Self::hessian_values_and_diagonal`] are
+    /// restored by their users).
+    pub(crate) fn hessian_count(&self) -> u64 {
+        self.hessian_count
     }
 
     /// Mutable Hessian values and the value index of every free diagonal entry, for in-place

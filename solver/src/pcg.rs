@@ -12,10 +12,16 @@
 //!   the factorization is retried on `A + μI + σ diag(A + μI)` with `σ = 10⁻³, 10⁻², …, 1`
 //!   (Manteuffel's shift). Its triangular solves are serial.
 //!
+//! **Warm start** ([`PcgSettings::warm_start`]): the iteration starts from the `x` passed in
+//! (e.g. the previous time step's solution) instead of zero, `r₀ = b − (A + μI) x`. The
+//! stopping test stays relative to `‖b‖₂`. A warm-started solution need not be a descent
+//! direction of the quadratic model (Newton runs with a line search keep the default).
+//!
 //! It stops when `‖r_k‖₂ ≤ tol · ‖b‖₂` and fails loudly otherwise:
 //!
 //! - a non-positive diagonal entry or a direction with `pᵀ(A + μI)p ≤ 0` proves the matrix is
-//!   not positive definite ([`PcgFailure::Indefinite`]);
+//!   not positive definite ([`PcgFailure::Indefinite`]; the direction stays available,
+//!   [`Pcg::negative_curvature`]);
 //! - no convergence within the iteration cap ([`PcgFailure::NotConverged`]).
 //!
 //! Started from zero, every CG iterate is a descent direction of the quadratic model, so a
@@ -60,9 +66,25 @@ pub struct PcgSettings {
     pub max_iterations: usize,
     /// The preconditioner.
     pub preconditioner: Preconditioner,
+    /// Start from the `x` passed to [`Pcg::solve`] instead of zero (module documentation).
+    pub warm_start: bool,
 }
 
 impl PcgSettings {
+    /// `relative_tolerance`, `max_iterations` and `preconditioner`, started from zero.
+    pub fn new(
+        relative_tolerance: f64,
+        max_iterations: usize,
+        preconditioner: Preconditioner,
+    ) -> Self {
+        Self {
+            relative_tolerance,
+            max_iterations,
+            preconditioner,
+            warm_start: false,
+        }
+    }
+
     /// Checks the ranges (`0 < relative_tolerance < 1`, `max_iterations ≥ 1`).
     pub fn validate(&self) -> Result<(), SolveError> {
         if !(self.relative_tolerance > 0.0 && self.relative_tolerance < 1.0) {
@@ -83,7 +105,8 @@ impl PcgSettings {
 /// A converged PCG solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PcgReport {
-    /// Number of CG iterations (matrix–vector products).
+    /// Number of CG iterations (matrix–vector products, the warm start's initial residual
+    /// not counted).
     pub iterations: usize,
     /// Final relative residual `‖b − (A + μI) x‖₂ / ‖b‖₂` (recursively updated; 0 for `b = 0`).
     pub relative_residual: f64,
@@ -134,6 +157,9 @@ pub struct Pcg {
     inv_diag: Vec<f64>,
     /// IC(0) factor on the lower pattern (built on the first IC solve).
     ic: Option<IncompleteCholesky>,
+    /// The Rayleigh quotient `pᵀ(A + μI)p / pᵀp ≤ 0` of the direction `p` (kept in `p`) at
+    /// which the last solve stopped as indefinite; `None` after any other outcome.
+    negative_curvature: Option<f64>,
     r: Vec<f64>,
     z: Vec<f64>,
     p: Vec<f64>,
@@ -215,6 +241,7 @@ impl Pcg {
             values: vec![0.0; nnz],
             inv_diag: vec![0.0; n],
             ic: None,
+            negative_curvature: None,
             r: vec![0.0; n],
             z: vec![0.0; n],
             p: vec![0.0; n],
@@ -227,8 +254,9 @@ impl Pcg {
         self.n
     }
 
-    /// Solves `(A + μ I) x = b` (`A` = `lower`, the same pattern as in [`Pcg::new`]) from
-    /// `x = 0`; `x` is overwritten. See the [module documentation](self).
+    /// Solves `(A + μ I) x = b` (`A` = `lower`, the same pattern as in [`Pcg::new`]); `x` is
+    /// overwritten, and read first as the start with [`PcgSettings::warm_start`]. See the
+    /// [module documentation](self).
     pub fn solve(
         &mut self,
         lower: SparseColMatRef<'_, usize, f64>,
@@ -238,6 +266,7 @@ impl Pcg {
         settings: &PcgSettings,
     ) -> Result<PcgReport, PcgFailure> {
         self.check_input(lower, b, x)?;
+        self.negative_curvature = None;
         self.load_matrix(lower, mu, b)?;
         if settings.preconditioner == Preconditioner::IncompleteCholesky {
             let ic = match &mut self.ic {
@@ -246,21 +275,68 @@ impl Pcg {
             };
             ic.factorize(lower.val(), mu)?;
         }
-        x.fill(0.0);
         let b_norm = dot(b, b).sqrt();
         if b_norm == 0.0 {
+            x.fill(0.0);
             return Ok(PcgReport {
                 iterations: 0,
                 relative_residual: 0.0,
             });
         }
-        self.r.copy_from_slice(b);
+        if settings.warm_start && x.iter().all(|v| v.is_finite()) {
+            // r = b − (A + μI) x₀, through the product's workspace.
+            self.p.copy_from_slice(x);
+            self.multiply(mu);
+            for ((r, &bi), &q) in self.r.iter_mut().zip(b).zip(&self.q) {
+                *r = bi - q;
+            }
+        } else {
+            x.fill(0.0);
+            self.r.copy_from_slice(b);
+        }
+        let r_norm = dot(&self.r, &self.r).sqrt();
+        if !r_norm.is_finite() {
+            return Err(PcgFailure::NonFinite("initial residual".into()));
+        }
+        if r_norm <= settings.relative_tolerance * b_norm {
+            return Ok(PcgReport {
+                iterations: 0,
+                relative_residual: r_norm / b_norm,
+            });
+        }
         for ((z, &r), &m) in self.z.iter_mut().zip(&self.r).zip(&self.inv_diag) {
             *z = m * r;
         }
         self.apply_incomplete_cholesky(settings);
         self.p.copy_from_slice(&self.z);
-        self.iterate(mu, b_norm, x, settings)
+        let (iterations, relative_residual) = self.iterate(mu, b_norm, r_norm, x, settings)?;
+        Ok(PcgReport {
+            iterations,
+            relative_residual,
+        })
+    }
+
+    /// After a solve that stopped as indefinite at a direction `p` of non-positive curvature
+    /// (a CG direction, or the unit vector of a non-positive diagonal entry): `p` and its
+    /// Rayleigh quotient `pᵀ(A + μI)p / pᵀp` for that solve's shift `μ`. `None` after any
+    /// other outcome and after [`Pcg::quadratic_form`] (which reuses the workspace).
+    pub fn negative_curvature(&self) -> Option<(&[f64], f64)> {
+        self.negative_curvature.map(|rho| (&self.p[..], rho))
+    }
+
+    /// `vᵀ A v` for `A` = `lower` (the same pattern as in [`Pcg::new`]; no shift), through the
+    /// workspace's product (parallel, thread-count independent).
+    pub fn quadratic_form(
+        &mut self,
+        lower: SparseColMatRef<'_, usize, f64>,
+        v: &[f64],
+    ) -> Result<f64, PcgFailure> {
+        self.check_input(lower, v, v)?;
+        self.negative_curvature = None;
+        self.gather_values(lower);
+        self.p.copy_from_slice(v);
+        self.multiply(0.0);
+        Ok(dot(&self.p, &self.q))
     }
 
     /// Checks that `lower` has the workspace's pattern size and `b`, `x` its dimension.
@@ -298,15 +374,8 @@ impl Pcg {
         mu: f64,
         b: &[f64],
     ) -> Result<(), PcgFailure> {
+        self.gather_values(lower);
         let lower_values = lower.val();
-        self.values
-            .par_chunks_mut(CHUNK)
-            .zip(self.source.par_chunks(CHUNK))
-            .for_each(|(v, s)| {
-                for (vi, &si) in v.iter_mut().zip(s) {
-                    *vi = lower_values[si];
-                }
-            });
         if !self.values.iter().all(|v| v.is_finite()) || !mu.is_finite() {
             return Err(PcgFailure::NonFinite("matrix entry or shift".into()));
         }
@@ -319,6 +388,12 @@ impl Pcg {
                 s => lower_values[s],
             } + mu;
             if d.is_nan() || d <= 0.0 {
+                if !d.is_nan() {
+                    // eᵢ is a direction of non-positive curvature.
+                    self.p.fill(0.0);
+                    self.p[i] = 1.0;
+                    self.negative_curvature = Some(d);
+                }
                 return Err(PcgFailure::Indefinite(format!(
                     "diagonal entry {i} is {d:.3e}"
                 )));
@@ -326,6 +401,19 @@ impl Pcg {
             self.inv_diag[i] = 1.0 / d;
         }
         Ok(())
+    }
+
+    /// Gathers the full symmetric values of `lower` into the CSR workspace.
+    fn gather_values(&mut self, lower: SparseColMatRef<'_, usize, f64>) {
+        let lower_values = lower.val();
+        self.values
+            .par_chunks_mut(CHUNK)
+            .zip(self.source.par_chunks(CHUNK))
+            .for_each(|(v, s)| {
+                for (vi, &si) in v.iter_mut().zip(s) {
+                    *vi = lower_values[si];
+                }
+            });
     }
 
     /// With the IC(0) preconditioner, replaces `z` by `L̃⁻ᵀL̃⁻¹ r`; returns whether it did.
@@ -343,22 +431,27 @@ impl Pcg {
         }
     }
 
-    /// The CG iterations (Saad Alg. 9.1) from `x = 0`, `r = b`, `z = p = P⁻¹ r`, until
-    /// `‖r‖₂ ≤ tol · ‖b‖₂`.
+    /// The CG iterations (Saad Alg. 9.1) from `x`, `r = b − (A + μI) x` (of norm `r_norm`),
+    /// `z = p = P⁻¹ r`, until `‖r‖₂ ≤ tol · ‖b‖₂`; returns the iterations and the final
+    /// relative residual.
     fn iterate(
         &mut self,
         mu: f64,
         b_norm: f64,
+        mut r_norm: f64,
         x: &mut [f64],
         settings: &PcgSettings,
-    ) -> Result<PcgReport, PcgFailure> {
+    ) -> Result<(usize, f64), PcgFailure> {
         let target = settings.relative_tolerance * b_norm;
         let mut rz = dot(&self.r, &self.z);
-        let mut r_norm = b_norm;
         for iteration in 1..=settings.max_iterations {
             self.multiply(mu);
             let curvature = dot(&self.p, &self.q);
             if curvature.is_nan() || curvature <= 0.0 {
+                let pp = dot(&self.p, &self.p);
+                if !curvature.is_nan() && pp > 0.0 {
+                    self.negative_curvature = Some(curvature / pp);
+                }
                 return Err(PcgFailure::Indefinite(format!(
                     "pᵀAp = {curvature:.3e} at iteration {iteration}"
                 )));
@@ -376,10 +469,7 @@ impl Pcg {
                 )));
             }
             if r_norm <= target {
-                return Ok(PcgReport {
-                    iterations: iteration,
-                    relative_residual: r_norm / b_norm,
-                });
+                return Ok((iteration, r_norm / b_norm));
             }
             let beta = rz_new / rz;
             rz = rz_new;

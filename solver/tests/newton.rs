@@ -5,7 +5,10 @@ mod common;
 use common::{
     CoshChain, DoubleWell, LinearChain, Rng, assert_close, dense_solve, hanging_net, spd_quadratic,
 };
-use solver::{NewtonSettings, NewtonSolver, Problem, SolveError, Termination, minimize};
+use solver::{
+    LinearSolver, NewtonSettings, NewtonSolver, PcgSettings, Preconditioner, Problem, SolveError,
+    Termination, minimize,
+};
 
 #[test]
 fn quadratic_is_solved_in_one_step() {
@@ -487,5 +490,67 @@ fn a_carried_shift_skips_the_failing_solves() {
         for (a, b) in w[k].0.iter().zip(&c[k].0) {
             assert!((a - b).abs() <= 1e-12, "run {k}: steps differ: {a} vs {b}");
         }
+    }
+}
+
+/// Known unstable directions of the CG back end: the double well's one-iteration runs from
+/// its concave region escalate the shift from `μ = 0` every run (no warm start of the shift).
+/// The first failed solve of the first run leaves a direction of negative curvature that
+/// rejects the next shifts without solving (`shifts_skipped`); the later runs know it from
+/// the start and solve only at the accepted shift. Every run tries the same shifts (solved
+/// or skipped) and accepts the shift the sparse Cholesky escalation accepts, and the runs
+/// take the same step bit for bit.
+#[test]
+fn known_directions_of_negative_curvature_skip_the_failing_cg_solves() {
+    let (n, problem, x0, base) = concave_one_iteration_runs();
+    let cg = NewtonSettings {
+        linear_solver: LinearSolver::ConjugateGradient(PcgSettings::new(
+            1e-10,
+            1000,
+            Preconditioner::Jacobi,
+        )),
+        ..base.clone()
+    };
+    let mut x = x0.clone();
+    let cholesky = minimize(&problem, &mut x, &vec![false; n], &base).unwrap();
+    let mut solver = NewtonSolver::new(&problem, &vec![false; n]).unwrap();
+    let runs: Vec<_> = (0..3)
+        .map(|_| {
+            let mut x = x0.clone();
+            let report = solver.minimize(&problem, &mut x, &cg).unwrap();
+            (
+                x,
+                report.linear_solves,
+                report.shifts_skipped,
+                report.regularizations[0],
+            )
+        })
+        .collect();
+    eprintln!(
+        "(solves, skipped) per run: {:?}; shift {:.3e}; Cholesky: {} solves",
+        runs.iter().map(|r| (r.1, r.2)).collect::<Vec<_>>(),
+        runs[0].3,
+        cholesky.linear_solves
+    );
+    assert!(runs[0].3 > 0.0, "the start needs a shift");
+    assert!(
+        runs[0].1 >= 2,
+        "the first run fails a solve before it knows a direction"
+    );
+    assert!(runs[0].2 >= 1, "its direction rejects the next shifts");
+    for run in &runs {
+        assert_eq!(
+            run.1 + run.2,
+            cholesky.linear_solves,
+            "the same shifts tried"
+        );
+        assert_eq!(
+            run.3, cholesky.regularizations[0],
+            "the same shift accepted"
+        );
+        assert_eq!(run.0, runs[0].0, "the same step bit for bit");
+    }
+    for run in &runs[1..] {
+        assert_eq!(run.1, 1, "later runs solve at the accepted shift only");
     }
 }

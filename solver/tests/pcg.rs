@@ -21,6 +21,14 @@ fn random_spd(seed: u64, n: usize) -> (Assembler, Vec<Vec<f64>>) {
     (asm, dense)
 }
 
+/// [`random_spd`] with a right-hand side of entries uniform in [−1, 1] (seed `rhs_seed`).
+fn random_system(seed: u64, rhs_seed: u64, n: usize) -> (Assembler, Vec<Vec<f64>>, Vec<f64>) {
+    let (asm, dense) = random_spd(seed, n);
+    let mut rng = Rng::new(rhs_seed);
+    let b = (0..n).map(|_| rng.range(-1.0, 1.0)).collect();
+    (asm, dense, b)
+}
+
 /// `‖b − (A + μI) x‖₂ / ‖b‖₂` with the dense `A`.
 fn relative_residual(a: &[Vec<f64>], mu: f64, x: &[f64], b: &[f64]) -> f64 {
     let mut r2 = 0.0;
@@ -34,9 +42,7 @@ fn relative_residual(a: &[Vec<f64>], mu: f64, x: &[f64], b: &[f64]) -> f64 {
 #[test]
 fn pcg_solves_an_spd_system_to_its_tolerance() {
     let n = 300;
-    let (asm, dense) = random_spd(11, n);
-    let mut rng = Rng::new(5);
-    let b: Vec<f64> = (0..n).map(|_| rng.range(-1.0, 1.0)).collect();
+    let (asm, dense, b) = random_system(11, 5, n);
     let mut pcg = Pcg::new(asm.hessian()).unwrap();
     let mut iterations_by_preconditioner = Vec::new();
     for (tol, mu, preconditioner) in [
@@ -51,6 +57,7 @@ fn pcg_solves_an_spd_system_to_its_tolerance() {
             relative_tolerance: tol,
             max_iterations: 10 * n,
             preconditioner,
+            warm_start: false,
         };
         let mut x = vec![0.0; n];
         let report = pcg.solve(asm.hessian(), mu, &b, &mut x, &settings).unwrap();
@@ -82,6 +89,7 @@ fn pcg_solves_an_spd_system_to_its_tolerance() {
             relative_tolerance: tol,
             max_iterations: 10 * n,
             preconditioner: Preconditioner::Jacobi,
+            warm_start: false,
         };
         pcg.solve(asm.hessian(), 0.0, &b, &mut x, &s)
             .unwrap()
@@ -95,6 +103,7 @@ fn pcg_solves_an_spd_system_to_its_tolerance() {
         relative_tolerance: 1e-8,
         max_iterations: 10,
         preconditioner: Preconditioner::IncompleteCholesky,
+        warm_start: false,
     };
     let r = pcg
         .solve(asm.hessian(), 0.0, &vec![0.0; n], &mut x, &settings)
@@ -113,6 +122,7 @@ fn pcg_reports_non_convergence_clearly() {
         relative_tolerance: 1e-12,
         max_iterations: 3,
         preconditioner: Preconditioner::Jacobi,
+        warm_start: false,
     };
     let mut x = vec![0.0; n];
     let err = pcg
@@ -148,6 +158,7 @@ fn pcg_detects_indefinite_matrices_and_bad_input() {
         relative_tolerance: 1e-10,
         max_iterations: 50,
         preconditioner: Preconditioner::Jacobi,
+        warm_start: false,
     };
     let mut x = vec![0.0; 2];
     // b along the negative-curvature eigenvector (1, −1).
@@ -155,15 +166,36 @@ fn pcg_detects_indefinite_matrices_and_bad_input() {
         .solve(asm.hessian(), 0.0, &[1.0, -1.0], &mut x, &settings)
         .unwrap_err();
     assert!(matches!(err, PcgFailure::Indefinite(_)), "{err:?}");
+    // It leaves the direction it stopped at, p ∥ (1, −1), with its Rayleigh quotient −1,
+    // which the quadratic form reproduces.
+    let (p, rho) = pcg
+        .negative_curvature()
+        .expect("a direction of negative curvature");
+    let p = p.to_vec();
+    assert!(
+        (p[0] + p[1]).abs() <= 1e-12 * p[0].abs() && p[0] != 0.0,
+        "{p:?}"
+    );
+    assert!((rho + 1.0).abs() < 1e-12, "ρ = {rho}");
+    let pap = pcg.quadratic_form(asm.hessian(), &p).unwrap();
+    let pp = p[0] * p[0] + p[1] * p[1];
+    assert!((pap / pp - rho).abs() < 1e-12, "{pap} / {pp} vs {rho}");
     // A large enough shift makes it SPD and solvable: (A + 2I) x = (1, −1) → x = (1, −1).
     pcg.solve(asm.hessian(), 2.0, &[1.0, -1.0], &mut x, &settings)
         .unwrap();
     assert!((x[0] - 1.0).abs() < 1e-12 && (x[1] + 1.0).abs() < 1e-12);
-    // A negative diagonal (shift −1.5) is indefinite before any iteration.
+    assert!(
+        pcg.negative_curvature().is_none(),
+        "a converged solve leaves none"
+    );
+    // A negative diagonal (shift −1.5) is indefinite before any iteration; its direction is
+    // the first unit vector, of curvature 1 − 1.5.
     let err = pcg
         .solve(asm.hessian(), -1.5, &[1.0, 1.0], &mut x, &settings)
         .unwrap_err();
     assert!(err.to_string().contains("diagonal entry"), "{err}");
+    let (p, rho) = pcg.negative_curvature().expect("the diagonal's direction");
+    assert_eq!((p, rho), (&[1.0, 0.0][..], -0.5));
     // IC(0) of the indefinite matrix breaks down: the failure is still reported as
     // indefiniteness.
     let ic = PcgSettings {
@@ -191,6 +223,7 @@ fn pcg_detects_indefinite_matrices_and_bad_input() {
             relative_tolerance: bad.0,
             max_iterations: bad.1,
             preconditioner: Preconditioner::Jacobi,
+            warm_start: false,
         };
         assert!(matches!(s.validate(), Err(SolveError::InvalidSettings(_))));
     }
@@ -201,6 +234,7 @@ fn cg(relative_tolerance: f64, max_iterations: usize) -> LinearSolver {
         relative_tolerance,
         max_iterations,
         preconditioner: Preconditioner::Jacobi,
+        warm_start: false,
     })
 }
 
@@ -209,6 +243,7 @@ fn cg_ic(relative_tolerance: f64, max_iterations: usize) -> LinearSolver {
         relative_tolerance,
         max_iterations,
         preconditioner: Preconditioner::IncompleteCholesky,
+        warm_start: false,
     })
 }
 
@@ -352,4 +387,52 @@ fn pcg_newton_is_bit_identical_for_one_and_two_threads() {
     for solver in [cg(1e-10, 20000), cg_ic(1e-10, 20000)] {
         assert_eq!(run(1, solver), run(2, solver));
     }
+}
+
+/// `warm_start`: started at a solution of a tighter tolerance, a solve takes no iteration
+/// and keeps it; started near the solution it takes fewer iterations than from zero, and
+/// from a poor guess it still meets the tolerance (checked with the dense matrix); a guess
+/// with a non-finite entry is ignored (started from zero, as without the option).
+#[test]
+fn a_warm_start_begins_at_the_given_point() {
+    let n = 300;
+    let (asm, dense, b) = random_system(13, 7, n);
+    let mut rng = Rng::new(8);
+    let mut pcg = Pcg::new(asm.hessian()).unwrap();
+    let cold = PcgSettings::new(1e-8, 10 * n, Preconditioner::IncompleteCholesky);
+    let warm = PcgSettings {
+        warm_start: true,
+        ..cold
+    };
+    let mut x = vec![0.0; n];
+    let from_zero = pcg.solve(asm.hessian(), 0.3, &b, &mut x, &cold).unwrap();
+    assert!(from_zero.iterations > 1);
+    let solution = x.clone();
+    let tight = PcgSettings::new(1e-12, 10 * n, Preconditioner::IncompleteCholesky);
+    let mut exact = vec![0.0; n];
+    pcg.solve(asm.hessian(), 0.3, &b, &mut exact, &tight)
+        .unwrap();
+    let mut x = exact.clone();
+    let at_solution = pcg.solve(asm.hessian(), 0.3, &b, &mut x, &warm).unwrap();
+    assert_eq!(at_solution.iterations, 0);
+    assert_eq!(x, exact);
+    // Starting near the solution saves iterations; far from it, it still converges.
+    for (scale, fewer) in [(1e-6, true), (1e3, false)] {
+        let mut x: Vec<f64> = exact
+            .iter()
+            .map(|v| v + scale * rng.range(-1.0, 1.0))
+            .collect();
+        let report = pcg.solve(asm.hessian(), 0.3, &b, &mut x, &warm).unwrap();
+        assert!(
+            relative_residual(&dense, 0.3, &x, &b) <= 1e-8 + 1e-12,
+            "{report:?}"
+        );
+        if fewer {
+            assert!(report.iterations < from_zero.iterations, "{report:?}");
+        }
+    }
+    let mut x = vec![f64::NAN; n];
+    let report = pcg.solve(asm.hessian(), 0.3, &b, &mut x, &warm).unwrap();
+    assert_eq!(report, from_zero);
+    assert_eq!(x, solution);
 }

@@ -4,7 +4,9 @@
 //! anchor update, the simulator's default), the Newton tolerance, and the time step of the
 //! fast configuration (linearized implicit Euler, one Newton iteration per step, IC(0)-CG
 //! at relative tolerance 1e-3, the diagonal shift warm-started from step to step: what
-//! `examples/scaling.rs` times at 1 M DoFs), so that its speed is reported with its error.
+//! `examples/scaling.rs` times at 1 M DoFs), and the same with every CG solve started from
+//! the previous step's solution (`StepSettings::warm_started_cg`), so that its speed is
+//! reported with its error.
 //!
 //! Every pull starts from one rib settled free at the reference settings, so the error is
 //! that of the pull alone (earlier versions settled each run with its own step and folded
@@ -38,7 +40,7 @@ pub fn spec() -> FigureSpec {
     FigureSpec {
         name: "persistent-time-vs-error",
         title: "Persistent contacts: run time against rib-stretch force error",
-        shows: "wall time of a rib-stretch pull (one shared settle, then a pull per setting) against the RMS error of its force curve (relative to the reference's peak pull) vs a small-step, tight-tolerance reference with Coulomb-consistent friction (return mapping); families: time step with the return mapping, time step with the paper's explicit anchor update, Newton force tolerance, time step with linearized steps and IC-CG (the fast configuration, shift warm-started)",
+        shows: "wall time of a rib-stretch pull (one shared settle, then a pull per setting) against the RMS error of its force curve (relative to the reference's peak pull) vs a small-step, tight-tolerance reference with Coulomb-consistent friction (return mapping); families: time step with the return mapping, time step with the paper's explicit anchor update, Newton force tolerance, time step with linearized steps and IC-CG (the fast configuration, shift warm-started), the same with warm-started CG",
         paper: "our study (no paper figure); the paper runs dt = 1 ms",
         guarded: false,
         run,
@@ -57,17 +59,20 @@ enum Family {
     /// Time step, linearized implicit Euler with IC(0)-CG (the fast configuration of
     /// `examples/scaling.rs`), return mapping.
     Linearized(f64),
+    /// [`Family::Linearized`] with every CG solve started from the previous solution.
+    LinearizedWarmCg(f64),
 }
 
 /// Relative CG tolerance of the linearized family (scaling's `linear-ic-lag-3`).
 const LINEARIZED_CG_TOL: f64 = 1e-3;
 
 /// Legend names of the families, in [`Family::index`] order.
-const FAMILIES: [&str; 4] = [
+const FAMILIES: [&str; 5] = [
     "time step, implicit friction (return mapping)",
     "time step, explicit anchor update (paper)",
     "Newton tolerance (dt = 1 ms, implicit friction)",
     "time step, linearized steps, IC-CG (implicit friction)",
+    "time step, linearized, warm-started IC-CG (implicit friction)",
 ];
 
 impl Family {
@@ -77,6 +82,7 @@ impl Family {
             Family::DtExplicit(_) => 1,
             Family::Tolerance(_) => 2,
             Family::Linearized(_) => 3,
+            Family::LinearizedWarmCg(_) => 6,
         }
     }
 
@@ -85,20 +91,24 @@ impl Family {
             Family::Dt(v)
             | Family::DtExplicit(v)
             | Family::Tolerance(v)
-            | Family::Linearized(v) => v,
+            | Family::Linearized(v)
+            | Family::LinearizedWarmCg(v) => v,
         }
     }
 
     /// The pull settings of this run.
     fn settings(self, reference_tol: f64) -> SwatchSettings {
         let (dt, tol, return_mapping) = match self {
-            Family::Dt(dt) | Family::Linearized(dt) => (dt, reference_tol, true),
+            Family::Dt(dt) | Family::Linearized(dt) | Family::LinearizedWarmCg(dt) => {
+                (dt, reference_tol, true)
+            }
             Family::DtExplicit(dt) => (dt, reference_tol, false),
             Family::Tolerance(t) => (1e-3, t, true),
         };
         let mut s = settings(dt, tol, return_mapping);
-        if let Family::Linearized(_) = self {
+        if let Family::Linearized(_) | Family::LinearizedWarmCg(_) = self {
             s.linearized_cg = Some(LINEARIZED_CG_TOL);
+            s.cg_warm_start = matches!(self, Family::LinearizedWarmCg(_));
         }
         s
     }
@@ -109,6 +119,9 @@ impl Family {
             Family::DtExplicit(dt) => format!("dt = {:.4} ms, explicit anchors", 1e3 * dt),
             Family::Tolerance(t) => format!("Newton |g| ≤ {t:.0e} N"),
             Family::Linearized(dt) => format!("dt = {:.4} ms, linearized, IC-CG", 1e3 * dt),
+            Family::LinearizedWarmCg(dt) => {
+                format!("dt = {:.4} ms, linearized, warm-started IC-CG", 1e3 * dt)
+            }
         }
     }
 }
@@ -181,6 +194,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     runs.extend(dts.iter().map(|&d| Family::DtExplicit(d)));
     runs.extend(tolerances.iter().map(|&t| Family::Tolerance(t)));
     runs.extend(dts.iter().map(|&d| Family::Linearized(d)));
+    runs.extend(dts.iter().map(|&d| Family::LinearizedWarmCg(d)));
     let progress = ctx.progress(runs.len() as u64 + 2, "runs");
     let reference_settings = settings(reference_dt, reference_tol, true);
     // The settle uses the simulator's default (explicit) friction update.
@@ -201,7 +215,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         "newton_iterations",
         "dofs",
     ]);
-    let mut points: [Vec<(f64, f64)>; 4] = Default::default();
+    let mut points: [Vec<(f64, f64)>; 7] = Default::default();
     let mut summary = vec![
         (
             "settle (shared)".to_string(),
@@ -270,9 +284,9 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         .y_label("wall time (s)")
         .log_x()
         .log_y();
-    for (k, name) in FAMILIES.iter().enumerate() {
-        if !points[k].is_empty() {
-            chart = chart.series(Series::line_markers(*name, points[k].clone()));
+    for (name, family) in FAMILIES.iter().zip([0, 1, 2, 3, 6]) {
+        if !points[family].is_empty() {
+            chart = chart.series(Series::line_markers(*name, points[family].clone()));
         }
     }
     chart.save(&ctx.out_dir, ctx.name)?;
@@ -284,7 +298,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             "size": if q { "4x4" } else { "8x6" },
             "reference_dt_s": reference_dt, "reference_newton_abs_tol_n": reference_tol,
             "dts_s": dts, "tolerances_n": tolerances,
-            "linearized": {"cg_relative_tolerance": LINEARIZED_CG_TOL, "preconditioner": "IC(0)", "shift": "warm-started"},
+            "linearized": {"cg_relative_tolerance": LINEARIZED_CG_TOL, "preconditioner": "IC(0)", "shift": "warm-started", "warm_started_cg_family": 6},
             "garment": {"hat": if q { "hat_chart(8, 4, 2, 4)" } else { "hat_chart(8, 6, 3, 6)" }, "time_s": GARMENT_TIME, "reference_dt_s": GARMENT_REFERENCE_DT, "dts_s": GARMENT_DTS},
         }),
         data,
@@ -304,10 +318,11 @@ const GARMENT_DTS: [f64; 3] = [5e-4, 1e-3, 2e-3];
 /// The same study on a garment: a hat knitted in the round dressed on a head mesh
 /// (`sim_persistent::experiment::garment`, the `garment` figure's scene, smaller), simulated
 /// for [`GARMENT_TIME`] with full Newton (Cholesky, the default) and with linearized steps and
-/// IC-CG (the fast configuration) at each of [`GARMENT_DTS`]. Error: RMS over the nodes of
-/// the distance to the reference's node positions at the end, in yarn radii. Rows of family
-/// 4 (full Newton) and 5 (linearized) in the table, their `error` column in yarn radii (the
-/// rib families 0–3 hold the relative force error there); chart `…-garment`.
+/// IC-CG (the fast configuration), with and without warm-started CG, at each of
+/// [`GARMENT_DTS`]. Error: RMS over the nodes of the distance to the reference's node
+/// positions at the end, in yarn radii. Rows of family 4 (full Newton), 5 (linearized) and 7
+/// (linearized, warm-started CG) in the table, their `error` column in yarn radii (the rib
+/// families 0–3 and 6 hold the relative force error there); chart `…-garment`.
 fn garment_study(
     ctx: &FigureContext,
     data: &mut Table,
@@ -323,15 +338,25 @@ fn garment_study(
     let chart = hat_chart(sectors, width, brim, body)?;
     let profile = head_for_hat(sectors * width);
     type Run = (Vec<rod::geometry::V3>, f64, usize, f64, usize);
-    let simulate = |dt: f64, linearized: bool| -> anyhow::Result<Run> {
+    /// Full Newton, linearized IC-CG, linearized with warm-started CG.
+    #[derive(Clone, Copy, PartialEq)]
+    enum Method {
+        Newton,
+        Linearized,
+        LinearizedWarmCg,
+    }
+    let simulate = |dt: f64, method: Method| -> anyhow::Result<Run> {
         let mut settings = StepSettings {
             dt,
             rayleigh_alpha: 10.0,
             rayleigh_beta: 0.01,
             ..StepSettings::default()
         };
-        if linearized {
+        if method != Method::Newton {
             settings = settings.linearized_ic_cg(LINEARIZED_CG_TOL);
+        }
+        if method == Method::LinearizedWarmCg {
+            settings = settings.warm_started_cg();
         }
         let mut d = Dressing::new(&chart, &profile, 48, settings)?;
         let steps = (GARMENT_TIME / dt).round() as usize;
@@ -348,7 +373,7 @@ fn garment_study(
         ))
     };
     let (reference, reference_seconds, reference_iterations, _, _) =
-        simulate(GARMENT_REFERENCE_DT, false).context("garment reference")?;
+        simulate(GARMENT_REFERENCE_DT, Method::Newton).context("garment reference")?;
     let r = sim_persistent::params::YarnParams::sweater().radius;
     summary.push((
         "garment reference".into(),
@@ -358,19 +383,20 @@ fn garment_study(
             reference.len()
         ),
     ));
-    let mut points: [Vec<(f64, f64)>; 2] = Default::default();
-    for (k, linearized) in [false, true].into_iter().enumerate() {
+    const METHODS: [(Method, f64, &str); 3] = [
+        (Method::Newton, 4.0, "full Newton, Cholesky"),
+        (Method::Linearized, 5.0, "linearized steps, IC-CG"),
+        (
+            Method::LinearizedWarmCg,
+            7.0,
+            "linearized steps, warm-started IC-CG",
+        ),
+    ];
+    let mut points: [Vec<(f64, f64)>; 3] = Default::default();
+    for (k, &(method, family, label)) in METHODS.iter().enumerate() {
         for dt in GARMENT_DTS {
-            let name = format!(
-                "garment, dt = {:.2} ms, {}",
-                1e3 * dt,
-                if linearized {
-                    "linearized, IC-CG"
-                } else {
-                    "full Newton"
-                }
-            );
-            match simulate(dt, linearized) {
+            let name = format!("garment, dt = {:.2} ms, {label}", 1e3 * dt);
+            match simulate(dt, method) {
                 Ok((p, seconds, iterations, gap, dofs)) => {
                     let rms = (p
                         .iter()
@@ -380,14 +406,7 @@ fn garment_study(
                         / p.len() as f64)
                         .sqrt()
                         / r;
-                    data.push_row([
-                        (4 + k) as f64,
-                        dt,
-                        seconds,
-                        rms,
-                        iterations as f64,
-                        dofs as f64,
-                    ]);
+                    data.push_row([family, dt, seconds, rms, iterations as f64, dofs as f64]);
                     points[k].push((rms.max(1e-12), seconds));
                     summary.push((
                         name,
@@ -397,7 +416,7 @@ fn garment_study(
                     ));
                 }
                 Err(err) => {
-                    data.push_row([(4 + k) as f64, dt, f64::NAN, f64::NAN, 0.0, 0.0]);
+                    data.push_row([family, dt, f64::NAN, f64::NAN, 0.0, 0.0]);
                     summary.push((name, format!("failed: {err:#}")));
                 }
             }
@@ -408,12 +427,9 @@ fn garment_study(
         .y_label("wall time (s)")
         .log_x()
         .log_y();
-    for (k, name) in ["full Newton, Cholesky", "linearized steps, IC-CG"]
-        .iter()
-        .enumerate()
-    {
+    for (k, &(_, _, label)) in METHODS.iter().enumerate() {
         if !points[k].is_empty() {
-            chart = chart.series(Series::line_markers(*name, points[k].clone()));
+            chart = chart.series(Series::line_markers(label, points[k].clone()));
         }
     }
     chart.save(&ctx.out_dir, &format!("{}-garment", ctx.name))?;

@@ -44,6 +44,9 @@ pub struct SwatchSettings {
     /// with IC(0)-preconditioned conjugate gradients at relative tolerance `tol` (the fast
     /// configuration of `examples/scaling.rs`); `None` (default): full Newton, Cholesky.
     pub linearized_cg: Option<f64>,
+    /// With `linearized_cg`: start every CG solve from the previous one's solution
+    /// ([`StepSettings::warm_started_cg`]). Default false.
+    pub cg_warm_start: bool,
 }
 
 impl Default for SwatchSettings {
@@ -62,6 +65,7 @@ impl Default for SwatchSettings {
             params,
             construction: Construction::default(),
             linearized_cg: None,
+            cg_warm_start: false,
         }
     }
 }
@@ -78,6 +82,9 @@ impl SwatchSettings {
         s.newton.gradient_abs_tol = self.newton_abs_tol;
         if let Some(tol) = self.linearized_cg {
             s = s.linearized_ic_cg(tol);
+            if self.cg_warm_start {
+                s = s.warm_started_cg();
+            }
         }
         s
     }

@@ -49,6 +49,9 @@ pub(crate) trait NewtonSystem {
 pub(crate) enum SystemFailure {
     /// Worth retrying with a larger diagonal shift (failed factorization, indefiniteness).
     Retry(String),
+    /// The shift was rejected without a solve: a known direction of negative curvature
+    /// proves `H + μI` indefinite (retry with a larger shift, as after a failed solve).
+    Indefinite(String),
     /// Not worth retrying (the conjugate gradients ran out of iterations): fail the run.
     Fatal(String),
 }
@@ -186,6 +189,7 @@ fn empty_report(initial_constraint_violation: f64) -> NewtonReport {
         regularizations: Vec::new(),
         line_search_backtracks: 0,
         linear_solves: 0,
+        shifts_skipped: 0,
         linear_iterations: Vec::new(),
         timings: NewtonTimings::default(),
         termination: Termination::MaxIterations,
@@ -297,9 +301,12 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
                 k => base * settings.regularization_growth.powi(k as i32 - 1),
             };
             let solve_start = std::time::Instant::now();
-            self.report.linear_solves += 1;
             let solved = self.system.solve(self.asm, x, mu, &mut self.dx);
             self.report.timings.linear_solve += solve_start.elapsed().as_secs_f64();
+            match solved {
+                Err(SystemFailure::Indefinite(_)) => self.report.shifts_skipped += 1,
+                _ => self.report.linear_solves += 1,
+            }
             let residual = match solved {
                 Ok(r) => r,
                 Err(SystemFailure::Fatal(msg)) => {
@@ -308,7 +315,7 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
                         format!("{msg} (shift μ = {mu:.3e})"),
                     ));
                 }
-                Err(SystemFailure::Retry(msg)) => {
+                Err(SystemFailure::Retry(msg) | SystemFailure::Indefinite(msg)) => {
                     failure = (
                         Termination::FactorizationFailed,
                         format!("{msg} (shift μ = {mu:.3e})"),

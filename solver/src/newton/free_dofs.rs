@@ -9,7 +9,22 @@ use crate::pcg::{Pcg, PcgFailure, PcgSettings};
 use super::driver::{NewtonSystem, SystemFailure};
 use super::{LinearSolver, NewtonSettings};
 
+/// How many directions of negative curvature the CG back end keeps (two per step on the
+/// dressed sweater of `sim-persistent/examples/scaling.rs`: those of the attempts at `μ = 0`
+/// and one rung below the accepted shift, so four cover the last two steps).
+const KNOWN_DIRECTIONS: usize = 4;
+
 /// The unconstrained back end: sparse Cholesky or preconditioned CG on `H_ff + μ I`.
+///
+/// **Known unstable directions (CG).** A CG solve that stops as indefinite leaves a direction
+/// `v` (unit length) with `vᵀ(H + μI)v ≤ 0`; the back end keeps the last few. Before a solve
+/// at shift `μ'` it evaluates `vᵀ H v` of each on the current Hessian (one product per
+/// direction and Hessian) and, if some `vᵀ H v + μ' ≤ 0`, rejects the shift at once: `H + μ'I`
+/// is provably not positive definite, so the attempt could only fail (or, should CG miss the
+/// indefiniteness, return a step of an indefinite system). The Newton driver then escalates
+/// as after a failed solve, without the factorization and iterations the attempt would cost.
+/// Where the needed shift stays put from step to step, as on the dressed sweater, the
+/// attempts below it are skipped instead of repeated every step.
 pub(super) struct FreeDofSystem {
     /// Built on the first Cholesky solve (symbolic analysis once per solver).
     llt: Option<SparseLlt>,
@@ -23,6 +38,11 @@ pub(super) struct FreeDofSystem {
     free_index: Vec<Option<usize>>,
     rhs: Vec<f64>,
     solution: Vec<f64>,
+    /// The last successful CG solution: the start of the next solve with
+    /// [`PcgSettings::warm_start`] (zero before the first).
+    last_solution: Vec<f64>,
+    /// Directions of negative curvature found by earlier CG solves.
+    unstable: UnstableDirections,
     diag_backup: Vec<f64>,
 }
 
@@ -41,6 +61,8 @@ impl FreeDofSystem {
             free_index,
             rhs: vec![0.0; n_free],
             solution: Vec::new(),
+            last_solution: Vec::new(),
+            unstable: UnstableDirections::default(),
             diag_backup: vec![0.0; n_free],
         }
     }
@@ -62,6 +84,7 @@ impl FreeDofSystem {
             LinearSolver::ConjugateGradient(_) if self.pcg.is_none() => {
                 self.pcg = Some(Pcg::new(asm.hessian())?);
                 self.solution = vec![0.0; asm.n_free()];
+                self.last_solution = vec![0.0; asm.n_free()];
             }
             _ => {}
         }
@@ -102,14 +125,34 @@ impl FreeDofSystem {
             .pcg
             .as_mut()
             .ok_or("CG solve requested before its workspace was built")?;
+        let rejected = self
+            .unstable
+            .rejects(pcg, asm, mu)
+            .map_err(|e| SystemFailure::Retry(e.to_string()))?;
+        if let Some(curvature) = rejected {
+            return Err(SystemFailure::Indefinite(format!(
+                "PCG: matrix is not positive definite (a direction of negative curvature \
+                 found earlier has vᵀ(H + μI)v = {curvature:.3e})"
+            )));
+        }
+        if settings.warm_start {
+            self.solution.copy_from_slice(&self.last_solution);
+        }
         match pcg.solve(asm.hessian(), mu, &self.rhs, &mut self.solution, settings) {
             Ok(r) => {
                 self.linear_iterations = r.iterations;
                 self.rhs.copy_from_slice(&self.solution);
+                self.last_solution.copy_from_slice(&self.solution);
                 Ok(())
             }
             Err(e @ PcgFailure::NotConverged { .. }) => Err(SystemFailure::Fatal(e.to_string())),
-            Err(e) => Err(SystemFailure::Retry(e.to_string())),
+            Err(e) => {
+                if let Some((p, rho)) = pcg.negative_curvature() {
+                    // Its curvature on this Hessian is known: vᵀHv = ρ − μ.
+                    self.unstable.record(p, rho - mu, asm.hessian_count());
+                }
+                Err(SystemFailure::Retry(e.to_string()))
+            }
         }
     }
 }
@@ -169,5 +212,75 @@ impl NewtonSystem for FreeDofSystem {
 
     fn residual_without_solve(&self) -> bool {
         true
+    }
+}
+
+/// The directions of negative curvature at which earlier CG solves stopped (see
+/// [`FreeDofSystem`]), with their curvatures on the current Hessian.
+#[derive(Default)]
+struct UnstableDirections {
+    /// Unit 2-norm, free-DOF numbering, oldest first, at most [`KNOWN_DIRECTIONS`].
+    directions: Vec<Vec<f64>>,
+    /// `vᵀ H v` of every direction for the Hessian of assembly number `curvatures.0`
+    /// (`None`: not computed for the current Hessian yet).
+    curvatures: Option<(u64, Vec<f64>)>,
+}
+
+impl UnstableDirections {
+    /// `Some(vᵀ(H + μI)v ≤ 0)` of a known direction if one proves `H + μI` (`H` the
+    /// assembler's current Hessian) indefinite. The first call for a new Hessian evaluates
+    /// every direction's curvature on it (one product each) and forgets those with
+    /// `vᵀHv > 0`: no shift `μ ≥ 0` of this Hessian can be rejected by them, and a later
+    /// Hessian that curves down along them again shows it by a failed solve.
+    fn rejects(
+        &mut self,
+        pcg: &mut Pcg,
+        asm: &Assembler,
+        mu: f64,
+    ) -> Result<Option<f64>, PcgFailure> {
+        if self.directions.is_empty() {
+            return Ok(None);
+        }
+        let current = asm.hessian_count();
+        if self
+            .curvatures
+            .as_ref()
+            .is_none_or(|(of, _)| *of != current)
+        {
+            let mut curvatures = Vec::with_capacity(self.directions.len());
+            for v in &self.directions {
+                curvatures.push(pcg.quadratic_form(asm.hessian(), v)?);
+            }
+            let mut kept = curvatures.iter().map(|&c| c <= 0.0);
+            self.directions.retain(|_| kept.next() == Some(true));
+            curvatures.retain(|&c| c <= 0.0);
+            self.curvatures = Some((current, curvatures));
+        }
+        let curvatures = self.curvatures.as_ref().map_or(&[][..], |(_, c)| &c[..]);
+        Ok(curvatures.iter().map(|&c| c + mu).find(|&c| c <= 0.0))
+    }
+
+    /// Keeps the direction `p` (any length; stored normalized) of curvature `vᵀHv =
+    /// curvature` on the Hessian of assembly number `hessian`, dropping the oldest beyond
+    /// [`KNOWN_DIRECTIONS`].
+    fn record(&mut self, p: &[f64], curvature: f64, hessian: u64) {
+        let norm = p.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if !(norm > 0.0 && norm.is_finite()) {
+            return;
+        }
+        if self.directions.is_empty() {
+            self.curvatures = Some((hessian, Vec::new()));
+        }
+        if self.directions.len() == KNOWN_DIRECTIONS {
+            self.directions.remove(0);
+            if let Some((_, c)) = &mut self.curvatures {
+                c.remove(0);
+            }
+        }
+        self.directions.push(p.iter().map(|x| x / norm).collect());
+        match &mut self.curvatures {
+            Some((of, c)) if *of == hessian => c.push(curvature),
+            _ => self.curvatures = None,
+        }
     }
 }

@@ -62,7 +62,15 @@
 //! relative residual tolerance. A CG solve that meets a non-positive curvature is treated like
 //! a failed factorization (the shift escalates); one that reaches its iteration cap is a hard
 //! [`Termination::FactorizationFailed`] whose detail names the CG residual. The CG iteration
-//! count of each accepted step is reported in [`NewtonReport::linear_iterations`].
+//! count of each accepted step is reported in [`NewtonReport::linear_iterations`]. The CG back
+//! end keeps the last few directions of negative curvature its failed solves stopped at and
+//! rejects, without a solve, every shift `μ` for which one of them has `vᵀ(H + μI)v ≤ 0` on
+//! the current Hessian (`H + μI` is then provably indefinite): the escalation goes on as
+//! after a failed solve, to the same accepted shift, and the skipped attempts are counted in
+//! [`NewtonReport::shifts_skipped`]. With [`crate::PcgSettings::warm_start`] each CG solve
+//! starts from the last successful solve's solution (meant for fixed-iteration runs such as
+//! linearized time steps, whose consecutive solutions are close; a warm-started solution
+//! need not be a descent direction).
 //!
 //! **Fixed-iteration mode.** With `line_search = false` every step is taken at full length
 //! `α = min(1, α_max)` without the Armijo test, and with `accept_iteration_limit = true`
@@ -271,8 +279,13 @@ pub struct NewtonReport {
     /// Total number of rejected trial steps over all line searches.
     pub line_search_backtracks: usize,
     /// Linear solves of the Newton system attempted, the failed regularization attempts
-    /// included (a run that never needs a shift has one per iteration).
+    /// included (a run that never needs a shift has one per iteration); shifts rejected
+    /// without a solve are counted in `shifts_skipped` instead.
     pub linear_solves: usize,
+    /// Diagonal shifts rejected without a solve because a direction of negative curvature
+    /// found by an earlier CG solve proves `H + μI` indefinite (not in `linear_solves`; see
+    /// the CG back end's known unstable directions).
+    pub shifts_skipped: usize,
     /// Conjugate-gradient iterations of each accepted step's linear solve (0 for Cholesky).
     pub linear_iterations: Vec<usize>,
     /// Where the run's wall time went (diagnostics only; not deterministic).
