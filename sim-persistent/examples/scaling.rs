@@ -206,12 +206,11 @@ impl Config {
             0
         };
         if let Some((tol, preconditioner)) = self.pcg {
-            s.newton.linear_solver = LinearSolver::ConjugateGradient(PcgSettings {
-                relative_tolerance: tol,
-                max_iterations: 20_000,
-                preconditioner,
-                warm_start: self.name.ends_with("-guess"),
-            });
+            s.newton.linear_solver =
+                LinearSolver::ConjugateGradient(PcgSettings::new(tol, 20_000, preconditioner));
+        }
+        if self.name.ends_with("-guess") {
+            s = s.warm_started_cg();
         }
         s
     }

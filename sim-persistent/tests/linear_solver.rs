@@ -31,12 +31,7 @@ fn hanging(adjust: impl FnOnce(StepSettings) -> StepSettings) -> Simulator {
 }
 
 fn pcg(relative_tolerance: f64, preconditioner: Preconditioner) -> LinearSolver {
-    LinearSolver::ConjugateGradient(PcgSettings {
-        relative_tolerance,
-        max_iterations: 20_000,
-        preconditioner,
-        warm_start: false,
-    })
+    LinearSolver::ConjugateGradient(PcgSettings::new(relative_tolerance, 20_000, preconditioner))
 }
 
 fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {

@@ -53,12 +53,7 @@ fn pcg_solves_an_spd_system_to_its_tolerance() {
         (1e-10, 0.0, Preconditioner::IncompleteCholesky),
         (1e-10, 0.7, Preconditioner::IncompleteCholesky),
     ] {
-        let settings = PcgSettings {
-            relative_tolerance: tol,
-            max_iterations: 10 * n,
-            preconditioner,
-            warm_start: false,
-        };
+        let settings = PcgSettings::new(tol, 10 * n, preconditioner);
         let mut x = vec![0.0; n];
         let report = pcg.solve(asm.hessian(), mu, &b, &mut x, &settings).unwrap();
         let true_residual = relative_residual(&dense, mu, &x, &b);
@@ -85,12 +80,7 @@ fn pcg_solves_an_spd_system_to_its_tolerance() {
     // A tighter tolerance takes more iterations.
     let mut iterations = |tol: f64| {
         let mut x = vec![0.0; n];
-        let s = PcgSettings {
-            relative_tolerance: tol,
-            max_iterations: 10 * n,
-            preconditioner: Preconditioner::Jacobi,
-            warm_start: false,
-        };
+        let s = PcgSettings::new(tol, 10 * n, Preconditioner::Jacobi);
         pcg.solve(asm.hessian(), 0.0, &b, &mut x, &s)
             .unwrap()
             .iterations
@@ -99,12 +89,7 @@ fn pcg_solves_an_spd_system_to_its_tolerance() {
     assert!(tight > loose, "{tight} vs {loose}");
     // b = 0: x = 0 without iterating.
     let mut x = vec![1.0; n];
-    let settings = PcgSettings {
-        relative_tolerance: 1e-8,
-        max_iterations: 10,
-        preconditioner: Preconditioner::IncompleteCholesky,
-        warm_start: false,
-    };
+    let settings = PcgSettings::new(1e-8, 10, Preconditioner::IncompleteCholesky);
     let r = pcg
         .solve(asm.hessian(), 0.0, &vec![0.0; n], &mut x, &settings)
         .unwrap();
@@ -118,12 +103,7 @@ fn pcg_reports_non_convergence_clearly() {
     let (asm, _) = random_spd(12, n);
     let b = vec![1.0; n];
     let mut pcg = Pcg::new(asm.hessian()).unwrap();
-    let settings = PcgSettings {
-        relative_tolerance: 1e-12,
-        max_iterations: 3,
-        preconditioner: Preconditioner::Jacobi,
-        warm_start: false,
-    };
+    let settings = PcgSettings::new(1e-12, 3, Preconditioner::Jacobi);
     let mut x = vec![0.0; n];
     let err = pcg
         .solve(asm.hessian(), 0.0, &b, &mut x, &settings)
@@ -154,12 +134,7 @@ fn pcg_detects_indefinite_matrices_and_bad_input() {
     let mut asm = Assembler::new(&q).unwrap();
     asm.assemble(&q, &[0.0, 0.0], false).unwrap();
     let mut pcg = Pcg::new(asm.hessian()).unwrap();
-    let settings = PcgSettings {
-        relative_tolerance: 1e-10,
-        max_iterations: 50,
-        preconditioner: Preconditioner::Jacobi,
-        warm_start: false,
-    };
+    let settings = PcgSettings::new(1e-10, 50, Preconditioner::Jacobi);
     let mut x = vec![0.0; 2];
     // b along the negative-curvature eigenvector (1, −1).
     let err = pcg
@@ -219,32 +194,25 @@ fn pcg_detects_indefinite_matrices_and_bad_input() {
     ));
     // Invalid settings.
     for bad in [(0.0, 10), (1.0, 10), (f64::NAN, 10), (1e-6, 0)] {
-        let s = PcgSettings {
-            relative_tolerance: bad.0,
-            max_iterations: bad.1,
-            preconditioner: Preconditioner::Jacobi,
-            warm_start: false,
-        };
+        let s = PcgSettings::new(bad.0, bad.1, Preconditioner::Jacobi);
         assert!(matches!(s.validate(), Err(SolveError::InvalidSettings(_))));
     }
 }
 
 fn cg(relative_tolerance: f64, max_iterations: usize) -> LinearSolver {
-    LinearSolver::ConjugateGradient(PcgSettings {
+    LinearSolver::ConjugateGradient(PcgSettings::new(
         relative_tolerance,
         max_iterations,
-        preconditioner: Preconditioner::Jacobi,
-        warm_start: false,
-    })
+        Preconditioner::Jacobi,
+    ))
 }
 
 fn cg_ic(relative_tolerance: f64, max_iterations: usize) -> LinearSolver {
-    LinearSolver::ConjugateGradient(PcgSettings {
+    LinearSolver::ConjugateGradient(PcgSettings::new(
         relative_tolerance,
         max_iterations,
-        preconditioner: Preconditioner::IncompleteCholesky,
-        warm_start: false,
-    })
+        Preconditioner::IncompleteCholesky,
+    ))
 }
 
 #[test]

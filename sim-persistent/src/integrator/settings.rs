@@ -152,25 +152,25 @@ impl StepSettings {
     /// configuration of `examples/scaling.rs` (`linear-ic-lag-3` there with `tol = 1e-3`).
     pub fn linearized_ic_cg(self, tol: f64) -> Self {
         let mut s = self.linearized_implicit_euler();
-        s.newton.linear_solver = solver::LinearSolver::ConjugateGradient(solver::PcgSettings {
-            relative_tolerance: tol,
-            max_iterations: 20_000,
-            preconditioner: solver::Preconditioner::IncompleteCholesky,
-            warm_start: false,
-        });
+        s.newton.linear_solver = solver::LinearSolver::ConjugateGradient(solver::PcgSettings::new(
+            tol,
+            20_000,
+            solver::Preconditioner::IncompleteCholesky,
+        ));
         s
     }
-}
 
-impl StepSettings {
     /// These settings with every conjugate-gradient solve of a step started from the last
     /// successful solve's solution instead of zero ([`solver::PcgSettings::warm_start`];
     /// nothing changes with Cholesky). For linearized steps that solution is the previous
-    /// step's displacement `h vₙ`, close to this step's `h vₙ₊₁`: on the dressed sweater of
-    /// `examples/scaling.rs` the CG iterations per step fell from 47 to 30 and the step from
-    /// 2.28 to 1.78 s at 251 392 DoFs (20 steps), from 33 to 24 and 7.30 to 7.14 s at
-    /// 998 144 DoFs (10 steps; the solve 4.34 → 3.81 s), the solves ending at the same
-    /// relative residual test (2 cores). It is not the default: on the hat of
+    /// step's displacement `h vₙ`, close to this step's `h vₙ₊₁`. Measured on 2 cores, the
+    /// solves ending at the same relative residual test: criterion bench `step` (32 × 32
+    /// garter, 20 864 DoFs, tolerance 1e-6, one run) 325.6 → 290.0 ms per step
+    /// (`garter-linear-ic` → `garter-linear-ic-guess`); on the dressed sweater of
+    /// `examples/scaling.rs` the CG iterations per step fell from 47 to 30 at 251 392 DoFs
+    /// (20 steps) and from 33 to 24 at 998 144 DoFs (10 steps; solve 4.34 → 3.81 s, step
+    /// 7.30 → 7.14 s, single runs on a machine whose speed drifted by ±20 %). It is not the
+    /// default: on the hat of
     /// `persistent-time-vs-error`'s garment study it is 13–19 % faster at the same error at
     /// dt = 0.5 and 1 ms (0.834 / 1.249 R against 0.832 / 1.247 R) but 6 % less accurate at
     /// 2 ms (3.53 against 3.33 R). A warm-started CG solution need not be a descent direction,

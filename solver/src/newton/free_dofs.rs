@@ -271,13 +271,18 @@ impl UnstableDirections {
         if self.directions.is_empty() {
             self.curvatures = Some((hessian, Vec::new()));
         }
-        if self.directions.len() == KNOWN_DIRECTIONS {
-            self.directions.remove(0);
+        // The oldest direction's buffer is reused once the set is full.
+        let mut v = if self.directions.len() == KNOWN_DIRECTIONS {
             if let Some((_, c)) = &mut self.curvatures {
                 c.remove(0);
             }
-        }
-        self.directions.push(p.iter().map(|x| x / norm).collect());
+            self.directions.remove(0)
+        } else {
+            Vec::with_capacity(p.len())
+        };
+        v.clear();
+        v.extend(p.iter().map(|x| x / norm));
+        self.directions.push(v);
         match &mut self.curvatures {
             Some((of, c)) if *of == hessian => c.push(curvature),
             _ => self.curvatures = None,
