@@ -40,9 +40,9 @@ const SINGLE_SIZE: (u32, u32) = (960, 640);
 /// Size of a two-panel chart, in pixels.
 const PAIR_SIZE: (u32, u32) = (1600, 640);
 
-/// Series colours, in order (the "tab10" palette, then black, so that an eleventh series is
-/// not drawn in the first one's colour).
-const PALETTE: [RGBColor; 11] = [
+/// Series colours, in order (the "tab10" palette, then black and dark red, so that an eleventh
+/// or twelfth series is not drawn in the first ones' colours).
+const PALETTE: [RGBColor; 12] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -54,6 +54,7 @@ const PALETTE: [RGBColor; 11] = [
     RGBColor(188, 189, 34),
     RGBColor(23, 190, 207),
     RGBColor(0, 0, 0),
+    RGBColor(128, 0, 0),
 ];
 
 /// Registers the embedded font with plotters (once per process).

@@ -397,8 +397,8 @@ impl Config {
 /// # k2 = [10.0, 1000.0]         # beyond the paper: free the stiff stretch stiffness too
 ///                               # (explicit bounds only; the paper fixes it)
 /// # geometry_x = [0.8, 1.3]     # beyond the paper: stretch the input geometry along x / y
-/// # geometry_y = [0.8, 1.3]     # before the rest-shape estimation (swarm and COBYLA only;
-///                               # fit.json names the stretched geometry, fitted-geometry.pyp)
+/// # geometry_y = [0.8, 1.3]     # before the rest-shape estimation (fit.json names the
+///                               # stretched geometry, fitted-geometry.pyp)
 ///
 /// [fit]
 /// rest_shape = true             # estimate the rest shape for every candidate (§7.2)
@@ -414,6 +414,7 @@ impl Config {
 /// local_evaluations = 60
 /// local_starts = 1              # Levenberg–Marquardt from this many distinct swarm points
 ///                               # (in parallel; the yarn-fit figure uses 3)
+/// local_geometry = true         # Levenberg–Marquardt refines geometry_x / geometry_y too
 /// compression_nodes = 3
 /// comfort_stress = 33.333       # N/m: 2 N on the paper's 6 cm swatch
 /// ```
@@ -486,6 +487,9 @@ pub struct FitOptions {
     pub local_evaluations: usize,
     /// Levenberg–Marquardt starts ([`crate::fit::FitSettings::local_starts`]).
     pub local_starts: usize,
+    /// Levenberg–Marquardt refines the geometric parameters too
+    /// ([`crate::fit::FitSettings::local_geometry`]).
+    pub local_geometry: bool,
     /// Compression root-finds per direction.
     pub compression_nodes: usize,
     /// End of the comfort range as a target stress (N/m).
@@ -509,6 +513,7 @@ impl Default for FitOptions {
             local_samples: s.local_objective.samples,
             local_evaluations: s.local_evaluations,
             local_starts: s.local_starts,
+            local_geometry: s.local_geometry,
             compression_nodes: s.local_objective.compression_nodes,
             comfort_stress: s.local_objective.comfort_stress,
         }
@@ -598,6 +603,7 @@ impl FitConfig {
             local,
             local_evaluations: f.local_evaluations,
             local_starts: f.local_starts,
+            local_geometry: f.local_geometry,
             ..FitSettings::default()
         })
     }

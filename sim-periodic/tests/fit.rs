@@ -80,6 +80,7 @@ fn the_fit_recovers_known_parameters_from_their_own_curves() {
         local_step: 0.1,
         local_starts: 1,
         local_x_tol: 1e-6,
+        local_geometry: true,
     };
     let t = std::time::Instant::now();
     let result = fit_in_memory(&geometry, &targets, &space, &settings).unwrap();
@@ -290,7 +291,7 @@ fn the_stiff_stretch_stiffness_can_be_freed() {
 }
 
 #[test]
-fn a_known_geometry_stretch_is_recovered_by_cobyla_and_kept_by_levenberg_marquardt() {
+fn a_known_geometry_stretch_is_recovered_by_cobyla_and_by_levenberg_marquardt() {
     // Targets of a known yarn model on the input geometry stretched by 1.1 along y
     // (beyond the paper: the geometry's proportions as fit parameters).
     let geometry = geometry();
@@ -343,6 +344,7 @@ fn a_known_geometry_stretch_is_recovered_by_cobyla_and_kept_by_levenberg_marquar
         local_step: 0.2,
         local_starts: 1,
         local_x_tol: 1e-4,
+        local_geometry: true,
     };
     let result = run(&space, &settings);
     let a = result.geometry_stretch[1];
@@ -353,16 +355,41 @@ fn a_known_geometry_stretch_is_recovered_by_cobyla_and_kept_by_levenberg_marquar
     assert_eq!(result.geometry_stretch[0], 1.0);
     assert!((a - a_true).abs() < 0.01 * a_true, "a_y = {a}");
 
-    // Levenberg–Marquardt keeps it at its start and fits the yarn model there.
+    // Levenberg–Marquardt recovers it with k1 (its column by forward differences), from
+    // the same start, and keeps it at the start without `local_geometry`.
     let paper = paper_space(&geometry);
     let k1 = paper.free[0];
+    let k1_true = 0.62;
     let space =
         ParameterSpace::new(truth, vec![k1, bound(Parameter::GeometryY, a_min, a_max)]).unwrap();
     settings.local = LocalMethod::LevenbergMarquardt;
-    settings.local_evaluations = 3;
+    settings.local_evaluations = 30;
     settings.start = Some(vec![0.5, start]);
     let result = run(&space, &settings);
-    eprintln!("LM: x = {:?} ({})", result.x, result.local_status);
+    let a = result.geometry_stretch[1];
+    eprintln!(
+        "LM: x = {:?}, a_y = {a} ({}), g = {:e}",
+        result.x, result.local_status, result.evaluation.value
+    );
+    assert!((a - a_true).abs() < 0.01 * a_true, "a_y = {a}");
+    assert!(
+        (result.x[0] - k1_true).abs() < 0.02,
+        "k1 at {}",
+        result.x[0]
+    );
+    assert!(
+        result.evaluation.value < 1e-6,
+        "{:e}",
+        result.evaluation.value
+    );
+
+    settings.local_geometry = false;
+    settings.local_evaluations = 3;
+    let result = run(&space, &settings);
+    eprintln!(
+        "LM, geometry kept: x = {:?} ({})",
+        result.x, result.local_status
+    );
     assert_eq!(result.x[1], start);
     assert!((result.geometry_stretch[1] - 0.95).abs() < 1e-12);
     assert_ne!(result.x[0], 0.5, "LM moved no parameter");

@@ -17,8 +17,9 @@
 //! Beyond the paper, the input geometry's proportions can be searched too: stretch factors
 //! along x and y applied to it before the rest-shape estimation ([`Parameter::GeometryX`],
 //! [`Parameter::GeometryY`]). The swarm and COBYLA search them with the rest;
-//! Levenberg–Marquardt keeps them at its start, since they act only through the rest-shape
-//! estimation, which is not differentiated.
+//! Levenberg–Marquardt too, with forward differences for their Jacobian columns, since they
+//! act only through the rest-shape estimation, which is not differentiated
+//! ([`FitSettings::local_geometry`]).
 //!
 //! **Differences from the paper.** The swarm is argmin's standard PSO (SPSO 2011: constant
 //! inertia `1/(2 ln 2)`, cognitive and social factors `½ + ln 2`) by default; the paper's
@@ -160,7 +161,18 @@ pub struct FitSettings {
     /// The local search stops when a step changes every normalized coordinate by less than
     /// this. Default 1e-4.
     pub local_x_tol: f64,
+    /// Levenberg–Marquardt refines the geometric parameters ([`Parameter::is_geometric`]) too.
+    /// They act through the rest-shape estimation only, which is not differentiated: their
+    /// Jacobian columns are forward differences (step [`GEOMETRY_DIFFERENCE_STEP`]), one
+    /// extra evaluation per geometric parameter and Levenberg–Marquardt evaluation. `false`
+    /// keeps them at the start (the swarm's choice). Default `true`.
+    pub local_geometry: bool,
 }
+
+/// Forward-difference step (normalized coordinates) of the geometric parameters' first
+/// Jacobian columns in Levenberg–Marquardt ([`FitSettings::local_geometry`]): 2 % of the box,
+/// e.g. 0.012 in stretch for the bounds (0.75, 1.35).
+pub const GEOMETRY_DIFFERENCE_STEP: f64 = 0.02;
 
 /// The local refinement after the swarm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -188,6 +200,7 @@ impl Default for FitSettings {
             local_step: 0.1,
             local_starts: 1,
             local_x_tol: 1e-4,
+            local_geometry: true,
         }
     }
 }
@@ -673,7 +686,10 @@ fn cobyla_search(
 /// ([`Objective::evaluate_with_jacobian`]) plus a correction `B` for the rest shape's own
 /// dependence on the parameters, which is not differentiable in closed form: Broyden's update
 /// from every pair of consecutive evaluations, `B ← B + ((Δr − J̄Δx) − BΔx) Δxᵀ / ‖Δx‖²`, with
-/// `J̄` the mean of the two frozen Jacobians (starts at `B = 0`). Returns the last accepted
+/// `J̄` the mean of the two frozen Jacobians (starts at `B = 0`). With
+/// [`FitSettings::local_geometry`] the geometric parameters' columns are forward differences
+/// of the whole objective (rest shape included), and Broyden's update corrects only the other
+/// columns (`Δx` with its geometric entries zeroed on the right). Returns the last accepted
 /// point, how it stopped and the evaluations used.
 fn lm_search(
     objective: &Objective<'_>,
@@ -687,12 +703,15 @@ fn lm_search(
     let n = start.len();
     let mut p0 = [0.0; N];
     p0[..n].copy_from_slice(start);
+    // The geometric parameters' columns are forward differences (with `local_geometry`).
+    let geometric = |k: usize| k < n && space.free[k].parameter.is_geometric();
+    let differenced = |k: usize| geometric(k) && settings.local_geometry;
     let bounds = solver::LmBounds {
         lower: [0.0; N],
         upper: [1.0; N],
-        // The geometric parameters act through the rest-shape estimation only, which is not
-        // differentiated: Levenberg–Marquardt keeps them at the start (the swarm's choice).
-        fixed: std::array::from_fn(|k| k >= n || space.free[k].parameter.is_geometric()),
+        // Without `local_geometry` the geometric parameters stay at the start (the swarm's
+        // choice).
+        fixed: std::array::from_fn(|k| k >= n || (geometric(k) && !settings.local_geometry)),
         scale: [1.0; N],
     };
     let lm_settings = solver::LmSettings {
@@ -707,19 +726,39 @@ fn lm_search(
     let mut previous: Option<(DVector<f64>, DVector<f64>, DMatrix<f64>)> = None;
     let rest_shape = objective.settings.rest_shape;
     let mut eval = |p: &[f64; N]| -> Result<solver::LmEval<()>, FitError> {
-        let (evaluation, frozen) = objective.evaluate_with_jacobian(space, &p[..n], None)?;
+        let (evaluation, mut frozen) = objective.evaluate_with_jacobian(space, &p[..n], None)?;
         let r = Objective::residuals(&evaluation);
+        // The geometric parameters' columns (zero in the frozen Jacobian): forward differences,
+        // towards the box's inside, or away from it when that point has no equilibrium; a
+        // column stays zero when neither has one.
+        for k in (0..n).filter(|&k| differenced(k)) {
+            let d = GEOMETRY_DIFFERENCE_STEP;
+            let step = if p[k] + d <= 1.0 { d } else { -d };
+            for h in [step, -step] {
+                let mut q = p[..n].to_vec();
+                q[k] = (q[k] + h).clamp(0.0, 1.0);
+                count += 1;
+                if let Ok(shifted) = objective.evaluate_at(space, &q) {
+                    let dr = Objective::residuals(&shifted) - &r;
+                    frozen.set_column(k, &(dr / (q[k] - p[k])));
+                    break;
+                }
+            }
+        }
         let x = DVector::from_column_slice(&p[..n]);
         let b = correction.get_or_insert_with(|| DMatrix::zeros(r.len(), n));
         if let Some((x0, r0, j0)) = &previous
             && rest_shape
         {
             let dx = &x - x0;
-            let norm2 = dx.norm_squared();
+            // The differenced geometric columns are whole derivatives already: only the
+            // other columns are corrected.
+            let corrected = DVector::from_fn(n, |k, _| if differenced(k) { 0.0 } else { dx[k] });
+            let norm2 = corrected.norm_squared();
             if norm2 > 0.0 {
                 let mean = (j0 + &frozen) * 0.5;
                 let miss = (&r - r0) - &mean * &dx - &*b * &dx;
-                *b += miss * dx.transpose() / norm2;
+                *b += miss * corrected.transpose() / norm2;
             }
         }
         let j = &frozen + &*b;
