@@ -169,8 +169,8 @@ pub struct FitSettings {
     pub local_geometry: bool,
 }
 
-/// Forward-difference step (normalized coordinates) of the geometric parameters' first
-/// Jacobian columns in Levenberg–Marquardt ([`FitSettings::local_geometry`]): 2 % of the box,
+/// Forward-difference step (normalized coordinates) of the geometric parameters' Jacobian
+/// columns in Levenberg–Marquardt ([`FitSettings::local_geometry`]): 2 % of the box,
 /// e.g. 0.012 in stretch for the bounds (0.75, 1.35).
 pub const GEOMETRY_DIFFERENCE_STEP: f64 = 0.02;
 
@@ -737,6 +737,10 @@ fn lm_search(
             for h in [step, -step] {
                 let mut q = p[..n].to_vec();
                 q[k] = (q[k] + h).clamp(0.0, 1.0);
+                if q[k] == p[k] {
+                    // Outside the box (the start lies on a bound): no difference that way.
+                    continue;
+                }
                 count += 1;
                 if let Ok(shifted) = objective.evaluate_at(space, &q) {
                     let dr = Objective::residuals(&shifted) - &r;
