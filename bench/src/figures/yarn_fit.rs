@@ -235,8 +235,8 @@ pub fn with_fitted_geometry(space: ParameterSpace) -> anyhow::Result<ParameterSp
 ///
 /// Since Levenberg–Marquardt refines the geometry too ([`FitSettings::local_geometry`]), one
 /// start reaches the same point as three on the development fabric (`yarn-fit-ablations`:
-/// g 0.0776 in 61 s against 143 s). A full run of this figure with one start (release, 2
-/// cores, same machine as the committed run) was not adopted: `g` rose on three held-out
+/// g 0.0776 in 61 s against 143 s). A full run of this figure with one start (this constant
+/// set to 1; release, 2 cores, the committed run's machine) was not adopted: `g` rose on three held-out
 /// fabrics (babyredo garter 0.433 → 0.879, comfort-range error 23.2 → 37.3 %; acrylic rib
 /// 0.149 → 0.186; acrylic seed 0.0772 → 0.0788, although its comfort-range error fell from
 /// 12.5 to 8.5 %) and stayed on the other five, for the slowest fit 383 s instead of 608 s.

@@ -703,7 +703,6 @@ fn lm_search(
     let n = start.len();
     let mut p0 = [0.0; N];
     p0[..n].copy_from_slice(start);
-    // The geometric parameters' columns are forward differences (with `local_geometry`).
     let geometric = |k: usize| k < n && space.free[k].parameter.is_geometric();
     let differenced = |k: usize| geometric(k) && settings.local_geometry;
     let bounds = solver::LmBounds {
@@ -711,7 +710,7 @@ fn lm_search(
         upper: [1.0; N],
         // Without `local_geometry` the geometric parameters stay at the start (the swarm's
         // choice).
-        fixed: std::array::from_fn(|k| k >= n || (geometric(k) && !settings.local_geometry)),
+        fixed: std::array::from_fn(|k| k >= n || (geometric(k) && !differenced(k))),
         scale: [1.0; N],
     };
     let lm_settings = solver::LmSettings {
