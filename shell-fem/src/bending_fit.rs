@@ -358,9 +358,10 @@ pub fn fit_bending(
         Ok((res, jac, (r, states)))
     };
     let mut ratios = Vec::new();
-    let mut commit = |(r, states): Accepted| {
+    let mut commit = |(r, states): Accepted, _: &mut DMatrix<f64>| {
         sim.borrow_mut().commit(states);
         ratios = r;
+        Ok(())
     };
     let outcome = bounded_lm(
         p0.map(f64::ln),

@@ -791,9 +791,10 @@ pub fn fit(
         Ok((r, j, e))
     };
     let mut simulated_values = Vec::new();
-    let mut commit = |mut e: Evaluation| {
+    let mut commit = |mut e: Evaluation, _: &mut DMatrix<f64>| {
         sim.borrow_mut().commit(std::mem::take(&mut e.states));
         simulated_values = e.sim;
+        Ok(())
     };
     let outcome = bounded_lm(
         p,

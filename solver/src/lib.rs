@@ -99,7 +99,9 @@ pub use dense_newton::{
     newton_dense,
 };
 pub use error::SolveError;
-pub use lm::{LmBounds, LmError, LmEval, LmOutcome, LmSettings, LmTermination, bounded_lm};
+pub use lm::{
+    LmBounds, LmCommit, LmError, LmEval, LmOutcome, LmSettings, LmTermination, bounded_lm,
+};
 pub use newton::{
     LinearSolver, NewtonReport, NewtonSettings, NewtonSolver, NewtonTimings, Termination, minimize,
 };

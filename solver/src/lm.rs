@@ -5,8 +5,9 @@
 //! ```
 //!
 //! over `N` parameters (a handful: material fits) with `m` residuals whose Jacobian
-//! `J = ∂r/∂p` (m × N) the caller supplies with every evaluation (analytic, adjoint, or finite
-//! differences — the routine does not care).
+//! `J = ∂r/∂p` (m × N) the caller supplies (analytic, adjoint, or finite differences — the
+//! routine does not care), with every evaluation or, where it is costly, only for the points
+//! that lower the cost (`commit` of [`bounded_lm`]).
 //!
 //! **Iteration.** In scaled parameters `p̃_k = p_k / scale_k` (so that differently sized
 //! parameters are damped alike) with `J̃ = J diag(scale)`, each iteration solves Marquardt's
@@ -21,7 +22,8 @@
 //! a bound with the descent direction `−J̃ᵀr` pointing outward (an active set), are held: their
 //! rows and columns of the system are replaced by the identity with a zero right-hand side.
 //! A trial point with a lower cost is accepted (`λ ← max(λ/3, 1e-12)`); a trial point with a
-//! higher cost, or whose evaluation fails, is rejected (`λ ← 4λ`). `λ` starts at `1e-3`.
+//! higher cost, or whose evaluation or `commit` fails, is rejected (`λ ← 4λ`). `λ` starts at
+//! `1e-3`.
 //!
 //! **Stopping rules** ([`LmTermination`]): iteration limit (accepted and rejected iterations),
 //! all residuals at most `residual_tol`, gradient `‖J̃ᵀr‖_∞ ≤ 1e-14 √C` (rounding level), the
@@ -120,11 +122,16 @@ pub enum LmError<E> {
 }
 
 /// One residual evaluation for [`bounded_lm`]: residuals `r` (length `m`), Jacobian `∂r/∂p`
-/// (`m × N`) and a state handed to `commit` if the point is accepted.
+/// (`m × N`) and a state handed to `commit` if the point is accepted (`commit` may complete
+/// the Jacobian then).
 pub type LmEval<S> = (DVector<f64>, DMatrix<f64>, S);
 
 /// The residual function of [`bounded_lm`]: parameters → [`LmEval`], or the caller's error.
 pub type LmFn<'a, const N: usize, S, E> = dyn FnMut(&[f64; N]) -> Result<LmEval<S>, E> + 'a;
+
+/// The commit callback of [`bounded_lm`]: the state and the Jacobian of a point about to be
+/// accepted, or the caller's error (which rejects the point).
+pub type LmCommit<'a, S, E> = dyn FnMut(S, &mut DMatrix<f64>) -> Result<(), E> + 'a;
 
 /// Progress callback: `(iteration, cost)` after each accepted step.
 pub type LmProgress<'a> = &'a mut dyn FnMut(usize, f64);
@@ -134,15 +141,18 @@ pub type LmProgress<'a> = &'a mut dyn FnMut(usize, f64);
 /// `eval` returns the residuals, their Jacobian and a state at a parameter vector, or an error
 /// (for example a failed equilibrium inside a simulation-in-the-loop fit): a failure at a trial
 /// point rejects the point, a failure at the initial point is
-/// [`LmError::InitialEvaluation`]. `commit` receives the state of the initial point and of
-/// every accepted point, in order.
+/// [`LmError::InitialEvaluation`]. `commit` receives the state and the Jacobian of the initial
+/// point and of every point with a lower cost, in order, before the Jacobian is used: it may
+/// complete the Jacobian there (columns too costly to compute at trial points that may be
+/// rejected). A point whose `commit` fails is rejected like a failed evaluation (at the
+/// initial point: [`LmError::InitialEvaluation`]); every other one is accepted.
 pub fn bounded_lm<const N: usize, S, E>(
     p0: [f64; N],
     bounds: &LmBounds<N>,
     settings: &LmSettings,
     constrain: &dyn Fn(&mut [f64; N]),
     eval: &mut LmFn<'_, N, S, E>,
-    commit: &mut dyn FnMut(S),
+    commit: &mut LmCommit<'_, S, E>,
     mut progress: Option<LmProgress<'_>>,
 ) -> Result<LmOutcome<N>, LmError<E>> {
     check_input(p0, bounds)?;
@@ -157,7 +167,7 @@ pub fn bounded_lm<const N: usize, S, E>(
             r.len()
         )));
     }
-    commit(state);
+    commit(state, &mut jac).map_err(LmError::InitialEvaluation)?;
     let mut cost = r.norm_squared();
     let mut history = vec![cost];
     let mut lambda = 1e-3;
@@ -190,11 +200,12 @@ pub fn bounded_lm<const N: usize, S, E>(
             termination = LmTermination::StepTolerance;
             break;
         }
-        match evaluate_trial(eval, &trial, cost) {
-            Some((rt, jt, st, ct)) => {
+        let accepted = evaluate_trial(eval, &trial, cost)
+            .and_then(|(rt, mut jt, st, ct)| commit(st, &mut jt).ok().map(|()| (rt, jt, ct)));
+        match accepted {
+            Some((rt, jt, ct)) => {
                 let decrease = (cost - ct) / cost.max(f64::MIN_POSITIVE);
                 p = trial;
-                commit(st);
                 r = rt;
                 jac = jt;
                 cost = ct;
@@ -381,7 +392,7 @@ mod tests {
             &settings(),
             &|_| {},
             &mut rosenbrock,
-            &mut |_| {},
+            &mut |_, _| Ok(()),
             None,
         )
         .unwrap();
@@ -404,7 +415,7 @@ mod tests {
             &settings(),
             &|_| {},
             &mut rosenbrock,
-            &mut |_| {},
+            &mut |_, _| Ok(()),
             None,
         )
         .unwrap();
@@ -432,7 +443,7 @@ mod tests {
             &settings(),
             &|_| {},
             &mut eval,
-            &mut |_| {},
+            &mut |_, _| Ok(()),
             None,
         )
         .unwrap();
@@ -453,7 +464,10 @@ mod tests {
             &settings(),
             &|_| {},
             &mut rosenbrock,
-            &mut |_| commits += 1,
+            &mut |_, _| {
+                commits += 1;
+                Ok(())
+            },
             None,
         )
         .unwrap();
@@ -477,7 +491,7 @@ mod tests {
             &settings(),
             &|_| {},
             &mut eval,
-            &mut |_| {},
+            &mut |_, _| Ok(()),
             None,
         )
         .unwrap();
@@ -488,11 +502,95 @@ mod tests {
             &settings(),
             &|_| {},
             &mut eval,
-            &mut |_| {},
+            &mut |_, _| Ok(()),
             None,
         )
         .unwrap_err();
         assert!(matches!(err, LmError::InitialEvaluation("no equilibrium")));
+    }
+
+    /// A Jacobian supplied by `commit` at the points with a lower cost only (the evaluation
+    /// returns zeros) gives the same iterates as one supplied with every evaluation; a failed
+    /// `commit` rejects its point (here: every point with x > 0.5) like a failed evaluation.
+    #[test]
+    fn commit_may_supply_the_jacobian_and_a_failed_commit_rejects_the_point() {
+        let eager = bounded_lm(
+            [-1.2, 1.0],
+            &free(),
+            &settings(),
+            &|_| {},
+            &mut rosenbrock,
+            &mut |_, _| Ok(()),
+            None,
+        )
+        .unwrap();
+        let mut evaluations = 0;
+        let mut lazy_eval = |p: &[f64; 2]| -> Result<LmEval<[f64; 2]>, &str> {
+            evaluations += 1;
+            let (r, j, ()) = rosenbrock(p).unwrap();
+            Ok((r, DMatrix::zeros(j.nrows(), j.ncols()), *p))
+        };
+        let mut commits = 0;
+        let lazy = bounded_lm(
+            [-1.2, 1.0],
+            &free(),
+            &settings(),
+            &|_| {},
+            &mut lazy_eval,
+            &mut |p: [f64; 2], j: &mut DMatrix<f64>| {
+                commits += 1;
+                *j = rosenbrock(&p).unwrap().1;
+                Ok(())
+            },
+            None,
+        )
+        .unwrap();
+        assert_eq!(lazy, eager);
+        assert_eq!(commits, lazy.history.len());
+        assert!(commits < evaluations, "{commits} of {evaluations}");
+        let mut eval = |p: &[f64; 2]| -> Result<LmEval<f64>, &str> {
+            let (r, j, ()) = rosenbrock(p).unwrap();
+            Ok((r, j, p[0]))
+        };
+        let mut committed = Vec::new();
+        let capped = bounded_lm(
+            [-1.2, 1.0],
+            &free(),
+            &settings(),
+            &|_| {},
+            &mut eval,
+            &mut |x: f64, _: &mut DMatrix<f64>| {
+                if x > 0.5 {
+                    return Err("no sensitivities");
+                }
+                committed.push(x);
+                Ok(())
+            },
+            None,
+        )
+        .unwrap();
+        assert!(capped.p[0] <= 0.5, "{capped:?}");
+        assert_eq!(committed.len(), capped.history.len());
+        let err = bounded_lm(
+            [1.0, 1.0],
+            &free(),
+            &settings(),
+            &|_| {},
+            &mut eval,
+            &mut |x: f64, _: &mut DMatrix<f64>| {
+                if x > 0.5 {
+                    Err("no sensitivities")
+                } else {
+                    Ok(())
+                }
+            },
+            None,
+        )
+        .unwrap_err();
+        assert!(matches!(
+            err,
+            LmError::InitialEvaluation("no sensitivities")
+        ));
     }
 
     #[test]
@@ -507,7 +605,7 @@ mod tests {
                 &settings(),
                 &|_| {},
                 &mut rosenbrock,
-                &mut |_| {},
+                &mut |_, _| Ok(()),
                 None,
             )
         };

@@ -21,6 +21,18 @@
 //! 12.5 %, babyredo stockinette 9.2 → 16.7 %: `g` also weighs the power range and the
 //! compression) and stayed on one; the fits take about three times as long.
 //!
+//! Since then Levenberg–Marquardt computes a point's Jacobian (sensitivities, geometric
+//! differences) only where it accepts the point (`commit` of [`solver::bounded_lm`]), so a
+//! rejected trial point costs one objective evaluation instead of four, and Broyden's update
+//! sees the accepted points only. Development fabric (release, 2 cores, 3 starts): g 0.0776 →
+//! 0.0775, fit 144 → 54 s. In the committed full run that followed, `g` fell on four fabrics
+//! and rose on four (babyredo garter 0.433 → 0.684, acrylic rib 0.149 → 0.172, acrylic seed
+//! 0.0772 → 0.0819, babyredo stockinette 0.0715 → 0.0791: Broyden's update has fewer pairs),
+//! the comfort-range error mean fell from 16.0 to 15.6 % (3 instead of 1 of 8 within 10 %) and
+//! the slowest fit from 608 to 543 s. A Broyden update at every trial point instead (from the
+//! last accepted point, with its Jacobian) ended the development fabric at g 0.0780 in 55 s
+//! and was not adopted.
+//!
 //! **Hold-out.** The fit's settings were chosen while looking at one fabric only,
 //! `acrylic-yarn-stockinette` (the development fabric); the other seven were first fitted by
 //! the committed full run. The key numbers report both groups. One later choice saw every
@@ -235,8 +247,9 @@ pub fn with_fitted_geometry(space: ParameterSpace) -> anyhow::Result<ParameterSp
 ///
 /// Since Levenberg–Marquardt refines the geometry too ([`FitSettings::local_geometry`]), one
 /// start reaches the same point as three on the development fabric (`yarn-fit-ablations`:
-/// g 0.0776 in 61 s against 143 s). A full run of this figure with one start (this constant
-/// set to 1; release, 2 cores, the committed run's machine) was not adopted: `g` rose on three held-out
+/// g 0.0776 in 61 s against 143 s; with the Jacobian at accepted points only, 0.0775 in 35
+/// against 67 s). A full run of this figure with one start (this constant set to 1; release,
+/// 2 cores, before the Jacobian was computed at accepted points only) was not adopted: `g` rose on three held-out
 /// fabrics (babyredo garter 0.433 → 0.879, comfort-range error 23.2 → 37.3 %; acrylic rib
 /// 0.149 → 0.186; acrylic seed 0.0772 → 0.0788, although its comfort-range error fell from
 /// 12.5 to 8.5 %) and stayed on the other five, for the slowest fit 383 s instead of 608 s.

@@ -48,7 +48,7 @@ use crate::curves::CurveError;
 use crate::patterns::PatternError;
 use crate::periodic::{PeriodicError, YarnModel};
 pub use journal::Journal;
-pub use objective::{Evaluation, Objective, ObjectiveSettings, Sample};
+pub use objective::{Evaluation, Objective, ObjectiveSettings, Sample, Solved};
 pub use parameters::{
     Bound, Parameter, ParameterSpace, estimated_radius, parameter_partial, stretched_geometry,
 };
@@ -164,8 +164,9 @@ pub struct FitSettings {
     /// Levenberg–Marquardt refines the geometric parameters ([`Parameter::is_geometric`]) too.
     /// They act through the rest-shape estimation only, which is not differentiated: their
     /// Jacobian columns are forward differences (step [`GEOMETRY_DIFFERENCE_STEP`]), one
-    /// extra evaluation per geometric parameter and Levenberg–Marquardt evaluation. `false`
-    /// keeps them at the start (the swarm's choice). Default `true`.
+    /// extra evaluation per geometric parameter at the start and at every accepted
+    /// Levenberg–Marquardt point (rejected trial points need no Jacobian). `false` keeps them
+    /// at the start (the swarm's choice). Default `true`.
     pub local_geometry: bool,
 }
 
@@ -685,12 +686,13 @@ fn cobyla_search(
 /// estimated rest shape). The Jacobian of a point is the exact one of its frozen rest tile
 /// ([`Objective::evaluate_with_jacobian`]) plus a correction `B` for the rest shape's own
 /// dependence on the parameters, which is not differentiable in closed form: Broyden's update
-/// from every pair of consecutive evaluations, `B ← B + ((Δr − J̄Δx) − BΔx) Δxᵀ / ‖Δx‖²`, with
-/// `J̄` the mean of the two frozen Jacobians (starts at `B = 0`). With
+/// from every pair of consecutive accepted points, `B ← B + ((Δr − J̄Δx) − BΔx) Δxᵀ / ‖Δx‖²`,
+/// with `J̄` the mean of the two frozen Jacobians (starts at `B = 0`). With
 /// [`FitSettings::local_geometry`] the geometric parameters' columns are forward differences
 /// of the whole objective (rest shape included), and Broyden's update corrects only the other
-/// columns (`Δx` with its geometric entries zeroed on the right). Returns the last accepted
-/// point, how it stopped and the evaluations used.
+/// columns (`Δx` with its geometric entries zeroed on the right). Both are computed where
+/// Levenberg–Marquardt accepts a point (its `commit`), not at trial points it rejects. Returns
+/// the last accepted point, how it stopped and the evaluations used.
 fn lm_search(
     objective: &Objective<'_>,
     space: &ParameterSpace,
@@ -719,36 +721,58 @@ fn lm_search(
         step_tol: settings.local_x_tol,
         residual_tol: 0.0,
     };
-    let mut count = 0;
+    let count = std::cell::Cell::new(0);
+    let rest_shape = objective.settings.rest_shape;
+    // Trial points: residuals only; the point, its residuals and its equilibria are kept for
+    // `commit` (the Jacobian handed back is a placeholder).
+    type Trial = (DVector<f64>, DVector<f64>, Solved);
     let mut best = f64::INFINITY;
+    let mut eval = |p: &[f64; N]| -> Result<solver::LmEval<Trial>, FitError> {
+        let (evaluation, solved) = objective.solve_at(space, &p[..n], None)?;
+        let r = Objective::residuals(&evaluation);
+        count.set(count.get() + 1);
+        best = best.min(evaluation.value);
+        progress(&Progress {
+            phase: "local",
+            evaluations: count.get(),
+            best,
+            resumed: false,
+        });
+        let placeholder = DMatrix::zeros(r.len(), N);
+        let x = DVector::from_column_slice(&p[..n]);
+        Ok((r.clone(), placeholder, (x, r, solved)))
+    };
+    // Accepted points (and the start) get their Jacobian: the exact one of the frozen rest
+    // tile (geometric columns zero), the geometric columns, then the Broyden correction of the
+    // rest shape's dependence, all only where the step is taken (a rejected trial needs none).
+    // A point whose sensitivities do not exist (e.g. its equilibrium is a saddle) is rejected
+    // after all.
     let mut correction: Option<DMatrix<f64>> = None;
     let mut previous: Option<(DVector<f64>, DVector<f64>, DMatrix<f64>)> = None;
-    let rest_shape = objective.settings.rest_shape;
-    let mut eval = |p: &[f64; N]| -> Result<solver::LmEval<()>, FitError> {
-        let (evaluation, mut frozen) = objective.evaluate_with_jacobian(space, &p[..n], None)?;
-        let r = Objective::residuals(&evaluation);
+    let mut commit = |(x, r, solved): Trial, jacobian: &mut DMatrix<f64>| -> Result<(), FitError> {
+        let point: Vec<f64> = x.iter().copied().collect();
+        let mut frozen = objective.jacobian(&solved, space, &point)?;
         // The geometric parameters' columns (zero in the frozen Jacobian): forward differences,
         // towards the box's inside, or away from it when that point has no equilibrium; a
         // column stays zero when neither has one.
         for k in (0..n).filter(|&k| differenced(k)) {
             let d = GEOMETRY_DIFFERENCE_STEP;
-            let step = if p[k] + d <= 1.0 { d } else { -d };
+            let step = if x[k] + d <= 1.0 { d } else { -d };
             for h in [step, -step] {
-                let mut q = p[..n].to_vec();
+                let mut q: Vec<f64> = x.iter().copied().collect();
                 q[k] = (q[k] + h).clamp(0.0, 1.0);
-                if q[k] == p[k] {
-                    // Outside the box (the start lies on a bound): no difference that way.
+                if q[k] == x[k] {
+                    // Outside the box (the point lies on a bound): no difference that way.
                     continue;
                 }
-                count += 1;
+                count.set(count.get() + 1);
                 if let Ok(shifted) = objective.evaluate_at(space, &q) {
                     let dr = Objective::residuals(&shifted) - &r;
-                    frozen.set_column(k, &(dr / (q[k] - p[k])));
+                    frozen.set_column(k, &(dr / (q[k] - x[k])));
                     break;
                 }
             }
         }
-        let x = DVector::from_column_slice(&p[..n]);
         let b = correction.get_or_insert_with(|| DMatrix::zeros(r.len(), n));
         if let Some((x0, r0, j0)) = &previous
             && rest_shape
@@ -764,19 +788,9 @@ fn lm_search(
                 *b += miss * corrected.transpose() / norm2;
             }
         }
-        let j = &frozen + &*b;
-        previous = Some((x, r.clone(), frozen));
-        let mut jacobian = DMatrix::zeros(r.len(), N);
-        jacobian.columns_mut(0, n).copy_from(&j);
-        count += 1;
-        best = best.min(evaluation.value);
-        progress(&Progress {
-            phase: "local",
-            evaluations: count,
-            best,
-            resumed: false,
-        });
-        Ok((r, jacobian, ()))
+        jacobian.columns_mut(0, n).copy_from(&(&frozen + &*b));
+        previous = Some((x, r, frozen));
+        Ok(())
     };
     let outcome = match solver::bounded_lm(
         p0,
@@ -784,7 +798,7 @@ fn lm_search(
         &lm_settings,
         &|_| {},
         &mut eval,
-        &mut |_| {},
+        &mut commit,
         None,
     ) {
         Ok(outcome) => outcome,
@@ -794,7 +808,7 @@ fn lm_search(
             return Ok((
                 start.to_vec(),
                 format!("Levenberg–Marquardt could not start ({e}); the start point is kept"),
-                count,
+                count.get(),
             ));
         }
         Err(other) => return Err(FitError::Optimizer(other.to_string())),
@@ -805,7 +819,7 @@ fn lm_search(
             "Levenberg–Marquardt: {} after {} iterations",
             outcome.termination, outcome.iterations
         ),
-        count,
+        count.get(),
     ))
 }
 

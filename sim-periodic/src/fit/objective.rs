@@ -147,8 +147,38 @@ pub struct Evaluation {
 /// A sample's Jacobian row: `(dσ/dx, dc/dx, stretch factor, compression factor)`.
 type Row = (Vec<f64>, Vec<f64>, f64, f64);
 
-/// One direction's samples, rows and Newton iterations.
-type DirectionResult = (Vec<Sample>, Vec<Row>, usize);
+/// The equilibria behind an [`Evaluation`] ([`Objective::solve_at`]), from which
+/// [`Objective::jacobian`] computes its Jacobian.
+#[derive(Clone, Debug)]
+pub struct Solved {
+    /// The rest tile the curves start from.
+    tile: Tile,
+    /// The yarn model.
+    model: YarnModel,
+    /// Per direction, in the evaluation's sample order.
+    directions: Vec<SolvedDirection>,
+}
+
+/// One direction's equilibria.
+#[derive(Clone, Debug)]
+struct SolvedDirection {
+    direction: Direction,
+    /// At the compression nodes (zero orthogonal stress).
+    nodes: Vec<Equilibrium>,
+    /// At the stress samples.
+    samples: Vec<SolvedSample>,
+}
+
+/// A stress sample's equilibrium, where its compression was interpolated (between nodes
+/// `node − 1` and `node`, at the fraction `t`) and its residuals' weights.
+#[derive(Clone, Debug)]
+struct SolvedSample {
+    eq: Equilibrium,
+    node: usize,
+    t: f64,
+    stretch_factor: f64,
+    compression_factor: f64,
+}
 
 /// Per-direction normalization of the targets (module documentation).
 #[derive(Clone, Copy, Debug)]
@@ -281,15 +311,25 @@ impl Objective<'_> {
 
     /// Evaluates Eq. 11 at `model` on the input geometry.
     pub fn evaluate(&self, model: &YarnModel) -> Result<Evaluation, FitError> {
-        Ok(self.run(model, [1.0, 1.0], None, None)?.0)
+        Ok(self.run(model, [1.0, 1.0], None)?.0)
     }
 
     /// Evaluates Eq. 11 at the normalized point `x` of `space`: its model, on the input
     /// geometry stretched by its geometric parameters ([`ParameterSpace::geometry_stretch`]).
     pub fn evaluate_at(&self, space: &ParameterSpace, x: &[f64]) -> Result<Evaluation, FitError> {
-        Ok(self
-            .run(&space.model(x), space.geometry_stretch(x), None, None)?
-            .0)
+        Ok(self.solve_at(space, x, None)?.0)
+    }
+
+    /// [`Objective::evaluate_at`], keeping the equilibria ([`Solved`]) so that the Jacobian
+    /// can be computed afterwards ([`Objective::jacobian`]) — only for the points a local
+    /// search accepts. With `rest = Some(tile)`, see [`Objective::evaluate_with_jacobian`].
+    pub fn solve_at(
+        &self,
+        space: &ParameterSpace,
+        x: &[f64],
+        rest: Option<&Tile>,
+    ) -> Result<(Evaluation, Solved), FitError> {
+        self.run(&space.model(x), space.geometry_stretch(x), rest)
     }
 
     /// [`Objective::evaluate`] at the normalized point `x` of `space`, with the Jacobian of the
@@ -314,21 +354,115 @@ impl Objective<'_> {
         x: &[f64],
         rest: Option<&Tile>,
     ) -> Result<(Evaluation, DMatrix<f64>), FitError> {
-        let model = space.model(x);
-        let stretch = space.geometry_stretch(x);
-        let (evaluation, jacobian) = self.run(&model, stretch, Some((space, x)), rest)?;
-        Ok((evaluation, jacobian.expect("requested")))
+        let (evaluation, solved) = self.solve_at(space, x, rest)?;
+        let jacobian = self.jacobian(&solved, space, x)?;
+        Ok((evaluation, jacobian))
     }
 
-    /// The evaluation, and the residual Jacobian when a space and point are given, on the
-    /// given rest tile or the one estimated from the input geometry stretched by `stretch`.
+    /// The residual Jacobian (see [`Objective::evaluate_with_jacobian`]) of the evaluation
+    /// whose equilibria are `solved`, at the normalized point `x` of `space` it was solved at.
+    pub fn jacobian(
+        &self,
+        solved: &Solved,
+        space: &ParameterSpace,
+        x: &[f64],
+    ) -> Result<DMatrix<f64>, FitError> {
+        let Solved {
+            tile,
+            model,
+            directions,
+        } = solved;
+        let n_p = space.dim();
+        // dp/dx of each free parameter (the normalization's chain rule).
+        let dp_dx: Vec<f64> = space
+            .free
+            .iter()
+            .zip(space.values(x))
+            .map(|(b, v)| {
+                if b.parameter.log_scale() {
+                    v * (b.max / b.min).ln()
+                } else {
+                    b.max - b.min
+                }
+            })
+            .collect();
+        // Total derivatives of the stress at an equilibrium with respect to c (first) and to
+        // each free parameter (per unit of the normalized coordinate).
+        let derivatives = |eq: &Equilibrium, angle: f64| -> Result<Vec<Matrix2<f64>>, FitError> {
+            let v = Vector2::new(-angle.sin(), angle.cos());
+            let problem = equilibrium_problem(tile, model, eq)?;
+            let mut partials = vec![problem.coarse_partial(&eq.dofs, &(-(v * v.transpose())))?];
+            for b in &space.free {
+                partials.push(parameter_partial(tile, model, eq, b.parameter)?);
+            }
+            let mut total = stress_sensitivities(&problem, &eq.dofs, &partials)?;
+            for (t, scale) in total[1..].iter_mut().zip(&dp_dx) {
+                *t *= *scale;
+            }
+            Ok(total)
+        };
+        // One direction's rows (dσ/dx, dc/dx, stretch factor, compression factor); the
+        // directions run in parallel, merged in direction order.
+        let rows = |d: &SolvedDirection| -> Result<Vec<Row>, FitError> {
+            let angle = d.direction.angle();
+            let (u, v) = (
+                Vector2::new(angle.cos(), angle.sin()),
+                Vector2::new(-angle.sin(), angle.cos()),
+            );
+            // dc*/dx at every compression node.
+            let mut dc_nodes: Vec<Vec<f64>> = Vec::new();
+            for eq in &d.nodes {
+                let total = derivatives(eq, angle)?;
+                let dsc_dc = v.dot(&(total[0] * v));
+                dc_nodes.push(
+                    total[1..]
+                        .iter()
+                        .map(|t| -v.dot(&(t * v)) / dsc_dc)
+                        .collect(),
+                );
+            }
+            d.samples
+                .iter()
+                .map(|sample| {
+                    let (k, t) = (sample.node, sample.t);
+                    let total = derivatives(&sample.eq, angle)?;
+                    let dc: Vec<f64> = (0..n_p)
+                        .map(|j| (1.0 - t) * dc_nodes[k - 1][j] + t * dc_nodes[k][j])
+                        .collect();
+                    let dsigma_dc = u.dot(&(total[0] * u));
+                    let dsigma: Vec<f64> = (0..n_p)
+                        .map(|j| u.dot(&(total[j + 1] * u)) + dsigma_dc * dc[j])
+                        .collect();
+                    Ok((dsigma, dc, sample.stretch_factor, sample.compression_factor))
+                })
+                .collect()
+        };
+        let per_direction: Vec<Result<Vec<Row>, FitError>> =
+            directions.par_iter().map(rows).collect();
+        let mut all: Vec<Row> = Vec::new();
+        for r in per_direction {
+            all.extend(r?);
+        }
+        let count = all.len();
+        let n = count as f64;
+        let mut j = DMatrix::zeros(2 * count, n_p);
+        for (i, (dsigma, dc, fs, fc)) in all.iter().enumerate() {
+            for k in 0..n_p {
+                j[(i, k)] = fs * dsigma[k] / n.sqrt();
+                j[(count + i, k)] = fc * dc[k] / n.sqrt();
+            }
+        }
+        Ok(j)
+    }
+
+    /// The evaluation and its equilibria, on the given rest tile or the one estimated from the
+    /// input geometry stretched by `stretch`.
     fn run(
         &self,
         model: &YarnModel,
         stretch: [f64; 2],
-        differentiate: Option<(&ParameterSpace, &[f64])>,
         rest: Option<&Tile>,
-    ) -> Result<(Evaluation, Option<DMatrix<f64>>), FitError> {
+    ) -> Result<(Evaluation, Solved), FitError> {
         self.check()?;
         let (tile, rest_stress, mut iterations) = match rest {
             Some(tile) => {
@@ -343,85 +477,32 @@ impl Objective<'_> {
             }
             None => self.rest_tile_from(&stretched_geometry(self.geometry, stretch)?, model)?,
         };
-        let n_p = differentiate.map_or(0, |(space, _)| space.dim());
-        // dp/dx of each free parameter (the normalization's chain rule).
-        let dp_dx: Vec<f64> = differentiate.map_or(vec![], |(space, x)| {
-            let values = space.values(x);
-            space
-                .free
-                .iter()
-                .zip(values)
-                .map(|(b, v)| {
-                    if b.parameter.log_scale() {
-                        v * (b.max / b.min).ln()
-                    } else {
-                        b.max - b.min
-                    }
-                })
-                .collect()
-        });
-        // Total derivatives of the stress at an equilibrium with respect to c (first) and to
-        // each free parameter (per unit of the normalized coordinate).
-        let derivatives = |eq: &Equilibrium, angle: f64| -> Result<Vec<Matrix2<f64>>, FitError> {
-            let (space, _) = differentiate.expect("only when differentiating");
-            let v = Vector2::new(-angle.sin(), angle.cos());
-            let problem = equilibrium_problem(&tile, model, eq)?;
-            let mut partials = vec![problem.coarse_partial(&eq.dofs, &(-(v * v.transpose())))?];
-            for b in &space.free {
-                partials.push(parameter_partial(&tile, model, eq, b.parameter)?);
-            }
-            let mut total = stress_sensitivities(&problem, &eq.dofs, &partials)?;
-            for (t, scale) in total[1..].iter_mut().zip(&dp_dx) {
-                *t *= *scale;
-            }
-            Ok(total)
-        };
-        // One direction: its samples, their Jacobian rows (dσ/dx, dc/dx, stretch factor,
-        // compression factor) and Newton iterations. Directions are independent and run in
-        // parallel; the results are merged in direction order.
+        // One direction: its samples, equilibria and Newton iterations. Directions are
+        // independent and run in parallel; the results are merged in direction order.
         let direction = |d: Direction,
                          curve: &[TargetPoint]|
-         -> Result<DirectionResult, FitError> {
+         -> Result<(Vec<Sample>, SolvedDirection, usize), FitError> {
             let mut samples = Vec::new();
-            let mut rows: Vec<Row> = Vec::new();
+            let mut solved: Vec<SolvedSample> = Vec::new();
             let mut iterations = 0;
-            let (u, v) = (
-                Vector2::new(d.angle().cos(), d.angle().sin()),
-                Vector2::new(-d.angle().sin(), d.angle().cos()),
-            );
             let scales = scales(curve, self.settings.comfort_stress)?;
             let s_max = curve.last().map_or(0.0, |p| p.s);
             let m = self.settings.compression_nodes;
             let nodes: Vec<f64> = (0..m).map(|i| s_max * i as f64 / (m - 1) as f64).collect();
             let points = uniaxial_curve_states(&tile, model, d, &nodes, &self.settings.curve)?;
             iterations += points.iter().map(|(p, _)| p.iterations).sum::<usize>();
-            // dc*/dx at every node.
-            let mut dc_nodes: Vec<Vec<f64>> = Vec::new();
-            if differentiate.is_some() {
-                for (_, eq) in &points {
-                    let total = derivatives(eq, d.angle())?;
-                    let dsc_dc = v.dot(&(total[0] * v));
-                    dc_nodes.push(
-                        total[1..]
-                            .iter()
-                            .map(|t| -v.dot(&(t * v)) / dsc_dc)
-                            .collect(),
-                    );
-                }
-            }
             let interpolation = |s: f64| {
                 let k = nodes.partition_point(|&x| x <= s).clamp(1, m - 1);
                 let (a, b) = (nodes[k - 1], nodes[k]);
                 (k, if b > a { (s - a) / (b - a) } else { 0.0 })
             };
-            let mut warm: Option<(Vec<f64>, Coarse)> = None;
             for s in self.stretches(d) {
                 let (k, t) = interpolation(s);
                 let c = points[k - 1].0.c + t * (points[k].0.c - points[k - 1].0.c);
                 let coarse = Coarse::uniaxial(s, c, d.angle());
-                let guess = warm
-                    .as_ref()
-                    .map(|(dofs, from)| material_warm_start(dofs, from, &coarse));
+                let guess = solved
+                    .last()
+                    .map(|prev| material_warm_start(&prev.eq.dofs, &prev.eq.coarse, &coarse));
                 let eq = solve_equilibrium(
                     &tile,
                     model,
@@ -447,18 +528,6 @@ impl Objective<'_> {
                 let stretch_factor =
                     weight(scales.comfort_sigma, target.sigma) / ((1.0 + s) * scales.stress);
                 let compression_factor = weight(scales.comfort_c, target.c) / scales.compression;
-                if differentiate.is_some() {
-                    let total = derivatives(&eq, d.angle())?;
-                    let dc: Vec<f64> = (0..n_p)
-                        .map(|j| (1.0 - t) * dc_nodes[k - 1][j] + t * dc_nodes[k][j])
-                        .collect();
-                    let dsigma_dc = u.dot(&(total[0] * u));
-                    let dsigma: Vec<f64> = (0..n_p)
-                        .map(|j| u.dot(&(total[j + 1] * u)) + dsigma_dc * dc[j])
-                        .collect();
-                    rows.push((dsigma, dc, stretch_factor, compression_factor));
-                }
-                warm = Some((eq.dofs, coarse));
                 samples.push(Sample {
                     direction: d,
                     target,
@@ -468,25 +537,37 @@ impl Objective<'_> {
                     stretch_term: stretch_factor * (sigma - target.sigma),
                     compression_term: compression_factor * (c - target.c),
                 });
+                solved.push(SolvedSample {
+                    eq,
+                    node: k,
+                    t,
+                    stretch_factor,
+                    compression_factor,
+                });
             }
-            Ok((samples, rows, iterations))
+            let direction = SolvedDirection {
+                direction: d,
+                nodes: points.into_iter().map(|(_, eq)| eq).collect(),
+                samples: solved,
+            };
+            Ok((samples, direction, iterations))
         };
-        let directions: Vec<(Direction, &[TargetPoint])> = self
+        let curves: Vec<(Direction, &[TargetPoint])> = self
             .targets
             .curves
             .iter()
             .map(|(&d, c)| (d, c.as_slice()))
             .collect();
-        let results: Vec<Result<DirectionResult, FitError>> = directions
+        let results: Vec<_> = curves
             .par_iter()
             .map(|&(d, curve)| direction(d, curve))
             .collect();
         let mut samples = Vec::new();
-        let mut rows: Vec<Row> = Vec::new();
+        let mut directions = Vec::new();
         for result in results {
-            let (s, r, i) = result?;
+            let (s, d, i) = result?;
             samples.extend(s);
-            rows.extend(r);
+            directions.push(d);
             iterations += i;
         }
         let n = samples.len() as f64;
@@ -495,17 +576,6 @@ impl Objective<'_> {
             .map(|p| p.stretch_term.powi(2) + p.compression_term.powi(2))
             .sum::<f64>()
             / n;
-        let jacobian = differentiate.map(|_| {
-            let count = samples.len();
-            let mut j = DMatrix::zeros(2 * count, n_p);
-            for (i, (dsigma, dc, fs, fc)) in rows.iter().enumerate() {
-                for k in 0..n_p {
-                    j[(i, k)] = fs * dsigma[k] / n.sqrt();
-                    j[(count + i, k)] = fc * dc[k] / n.sqrt();
-                }
-            }
-            j
-        });
         let (comfort_error, power_error, compression_error) = self.errors(&samples)?;
         Ok((
             Evaluation {
@@ -517,7 +587,11 @@ impl Objective<'_> {
                 rest_stress,
                 iterations,
             },
-            jacobian,
+            Solved {
+                tile,
+                model: *model,
+                directions,
+            },
         ))
     }
 
