@@ -7,22 +7,21 @@
 //! stretch along x and y fitted too, then with Levenberg–Marquardt from three distinct swarm
 //! points instead of one (the settings `yarn-fit` adopted from this comparison). Every other
 //! variant runs one Levenberg–Marquardt start, so the two local methods are compared from the
-//! same single start. Then `yarn-fit`'s settings with the paper's swarm inertia, decaying
-//! from 0.9 to 0.1, instead of argmin's constant one (not adopted when it was measured with
-//! Levenberg–Marquardt keeping the swarm's geometry: g 0.0818 against 0.0789; since
-//! Levenberg–Marquardt refines the geometry this figure measured g 0.0731 against 0.0776 in
-//! 107 s against 143 s, and since the Jacobian is computed at accepted points only 0.0731
-//! against 0.0775 in 75 s against 67 s). Last, `yarn-fit`'s settings with
-//! Levenberg–Marquardt keeping the swarm's geometry instead of refining it
-//! ([`FitSettings::local_geometry`]; the default before it was adopted; with the Jacobian at
-//! accepted points only it ends at g 0.0734, below the 0.0775 of refining it).
+//! same single start. Every variant's swarm has `yarn-fit`'s settings, the paper's inertia
+//! decaying from 0.9 to 0.1 among them
+//! ([`SWARM_INERTIA`](super::yarn_fit::SWARM_INERTIA), which says how it was chosen from
+//! this figure). Then `yarn-fit`'s settings with argmin's constant swarm inertia
+//! instead. Last, `yarn-fit`'s settings with Levenberg–Marquardt keeping the swarm's geometry
+//! instead of refining it ([`FitSettings::local_geometry`]; the default before it was
+//! adopted; with argmin's constant inertia and the Jacobian at accepted points only it ended
+//! at g 0.0734, below the 0.0775 of refining it, and with the paper's inertia at 0.0804).
 
 use std::time::Instant;
 
 use rod::stretch::StretchLaw;
 use sim_periodic::fit::{
     Bound, Evaluation, FitSettings, Journal, LocalMethod, Parameter, ParameterSpace, Targets,
-    estimated_radius, fit,
+    constant_inertia, estimated_radius, fit,
 };
 use sim_periodic::periodic::YarnModel;
 use yarn_pattern::direction::Direction;
@@ -39,7 +38,7 @@ pub fn spec() -> FigureSpec {
     FigureSpec {
         name: "yarn-fit-ablations",
         title: "Yarn fit ablations: swarm, stretch law, rest shape, local method",
-        shows: "stretch stress against stretch (weft, warp) of the development fabric's shell targets and of the yarn model fitted with: swarm + Levenberg–Marquardt (ours, default), swarm + COBYLA (paper), COBYLA without swarm (Fig. 11), Levenberg–Marquardt without swarm, a linear yarn stretch law (Fig. 16), no rest-shape estimation (Fig. 17), and (beyond the paper) k_s2 fitted too, or the procedural tile's stretch along x and y fitted too, with one or three Levenberg–Marquardt starts, with the paper's decaying swarm inertia, and with Levenberg–Marquardt keeping the swarm's geometry instead of refining it; last panel: comfort-range error and fit time per variant",
+        shows: "stretch stress against stretch (weft, warp) of the development fabric's shell targets and of the yarn model fitted with: swarm + Levenberg–Marquardt (ours, default), swarm + COBYLA (paper), COBYLA without swarm (Fig. 11), Levenberg–Marquardt without swarm, a linear yarn stretch law (Fig. 16), no rest-shape estimation (Fig. 17), and (beyond the paper) k_s2 fitted too, or the procedural tile's stretch along x and y fitted too, with one or three Levenberg–Marquardt starts, with argmin's constant instead of the paper's decaying swarm inertia, and with Levenberg–Marquardt keeping the swarm's geometry instead of refining it; last panel: comfort-range error and fit time per variant",
         paper: "Figs. 11, 16, 17: without the swarm, with a linear stretch law or without rest-shape estimation the stretching error blows up",
         guarded: false,
         run,
@@ -61,16 +60,13 @@ struct Variant {
     /// Levenberg–Marquardt starts ([`FitSettings::local_starts`]; `yarn-fit` uses
     /// [`LOCAL_STARTS`]).
     local_starts: usize,
-    /// The paper's swarm inertia, decaying from 0.9 to 0.1 (§7.3.3), instead of argmin's
-    /// constant `1/(2 ln 2)`.
-    paper_inertia: bool,
+    /// argmin's constant swarm inertia `1/(2 ln 2)` instead of `yarn-fit`'s, the paper's
+    /// decaying from 0.9 to 0.1 (§7.3.3, [`SWARM_INERTIA`](super::yarn_fit::SWARM_INERTIA)).
+    constant_inertia: bool,
     /// Levenberg–Marquardt refines the fitted geometry too ([`FitSettings::local_geometry`],
     /// the default) instead of keeping the swarm's.
     local_geometry: bool,
 }
-
-/// The paper's swarm inertia weights, first and last iteration (§7.3.3).
-const PAPER_INERTIA: (f64, f64) = (0.9, 0.1);
 
 /// Bounds of `k_s2` in the "free k2" variant (N): a decade either side of the 200 N default
 /// and then some; the paper fixes it to the stiffest yarn's.
@@ -87,7 +83,7 @@ const DEFAULT: Variant = Variant {
     free_k2: false,
     free_geometry: false,
     local_starts: 1,
-    paper_inertia: false,
+    constant_inertia: false,
     local_geometry: true,
 };
 
@@ -136,10 +132,10 @@ const VARIANTS: [Variant; 11] = [
         ..DEFAULT
     },
     Variant {
-        name: "as yarn-fit, paper's swarm inertia 0.9 → 0.1",
+        name: "as yarn-fit, argmin's constant swarm inertia",
         free_geometry: true,
         local_starts: LOCAL_STARTS,
-        paper_inertia: true,
+        constant_inertia: true,
         ..DEFAULT
     },
     Variant {
@@ -201,10 +197,11 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         s.local = v.local;
         s.local_starts = v.local_starts;
         s.local_geometry = v.local_geometry;
-        if v.paper_inertia
+        if v.constant_inertia
             && let Some(swarm) = &mut s.swarm
         {
-            swarm.inertia = PAPER_INERTIA;
+            let w = constant_inertia();
+            swarm.inertia = (w, w);
         }
         if v.local == LocalMethod::Cobyla {
             // COBYLA counts evaluations, LM iterations: give COBYLA as many evaluations as

@@ -24,7 +24,8 @@
 //! **Differences from the paper.** The swarm is argmin's standard PSO (SPSO 2011: constant
 //! inertia `1/(2 ln 2)`, cognitive and social factors `½ + ln 2`) by default; the paper's
 //! decaying inertia (0.9 → 0.1) is [`SwarmSettings::inertia`] (argmin's swarm with the weight
-//! set before each iteration), and its heuristic repulsion is not available. The swarm is
+//! set before each iteration; the `yarn-fit` figure uses it), and its heuristic repulsion is
+//! not available. The swarm is
 //! sized for two cores
 //! ([`SwarmSettings`]), not the paper's 64 particles × 10 steps on 256 cores. After the
 //! rest-shape rounds the period is relaxed to zero normal coarse stress
