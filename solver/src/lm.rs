@@ -376,6 +376,16 @@ mod tests {
         }
     }
 
+    /// [`bounded_lm`] on two unbounded parameters with [`settings`], no further constraints
+    /// and no progress callback.
+    fn unbounded<S, E>(
+        p0: [f64; 2],
+        eval: &mut LmFn<'_, 2, S, E>,
+        commit: &mut LmCommit<'_, S, E>,
+    ) -> Result<LmOutcome<2>, LmError<E>> {
+        bounded_lm(p0, &free(), &settings(), &|_| {}, eval, commit, None)
+    }
+
     /// Rosenbrock as least squares: r = (10 (y − x²), 1 − x).
     fn rosenbrock(p: &[f64; 2]) -> Result<LmEval<()>, Infallible> {
         let [x, y] = *p;
@@ -386,16 +396,7 @@ mod tests {
 
     #[test]
     fn unconstrained_rosenbrock_reaches_its_minimum() {
-        let out = bounded_lm(
-            [-1.2, 1.0],
-            &free(),
-            &settings(),
-            &|_| {},
-            &mut rosenbrock,
-            &mut |_, _| Ok(()),
-            None,
-        )
-        .unwrap();
+        let out = unbounded([-1.2, 1.0], &mut rosenbrock, &mut |_, _| Ok(())).unwrap();
         assert!(
             (out.p[0] - 1.0).abs() < 1e-8 && (out.p[1] - 1.0).abs() < 1e-8,
             "{out:?}"
@@ -485,27 +486,9 @@ mod tests {
                 Ok(rosenbrock(p).unwrap())
             }
         };
-        let out = bounded_lm(
-            [-1.2, 1.0],
-            &free(),
-            &settings(),
-            &|_| {},
-            &mut eval,
-            &mut |_, _| Ok(()),
-            None,
-        )
-        .unwrap();
+        let out = unbounded([-1.2, 1.0], &mut eval, &mut |_, _| Ok(())).unwrap();
         assert!(out.p[0] <= 0.5);
-        let err = bounded_lm(
-            [1.0, 1.0],
-            &free(),
-            &settings(),
-            &|_| {},
-            &mut eval,
-            &mut |_, _| Ok(()),
-            None,
-        )
-        .unwrap_err();
+        let err = unbounded([1.0, 1.0], &mut eval, &mut |_, _| Ok(())).unwrap_err();
         assert!(matches!(err, LmError::InitialEvaluation("no equilibrium")));
     }
 
@@ -514,16 +497,7 @@ mod tests {
     /// `commit` rejects its point (here: every point with x > 0.5) like a failed evaluation.
     #[test]
     fn commit_may_supply_the_jacobian_and_a_failed_commit_rejects_the_point() {
-        let eager = bounded_lm(
-            [-1.2, 1.0],
-            &free(),
-            &settings(),
-            &|_| {},
-            &mut rosenbrock,
-            &mut |_, _| Ok(()),
-            None,
-        )
-        .unwrap();
+        let eager = unbounded([-1.2, 1.0], &mut rosenbrock, &mut |_, _| Ok(())).unwrap();
         let mut evaluations = 0;
         let mut lazy_eval = |p: &[f64; 2]| -> Result<LmEval<[f64; 2]>, &str> {
             evaluations += 1;
@@ -531,18 +505,14 @@ mod tests {
             Ok((r, DMatrix::zeros(j.nrows(), j.ncols()), *p))
         };
         let mut commits = 0;
-        let lazy = bounded_lm(
+        let lazy = unbounded(
             [-1.2, 1.0],
-            &free(),
-            &settings(),
-            &|_| {},
             &mut lazy_eval,
             &mut |p: [f64; 2], j: &mut DMatrix<f64>| {
                 commits += 1;
                 *j = rosenbrock(&p).unwrap().1;
                 Ok(())
             },
-            None,
         )
         .unwrap();
         assert_eq!(lazy, eager);
@@ -553,11 +523,8 @@ mod tests {
             Ok((r, j, p[0]))
         };
         let mut committed = Vec::new();
-        let capped = bounded_lm(
+        let capped = unbounded(
             [-1.2, 1.0],
-            &free(),
-            &settings(),
-            &|_| {},
             &mut eval,
             &mut |x: f64, _: &mut DMatrix<f64>| {
                 if x > 0.5 {
@@ -566,16 +533,12 @@ mod tests {
                 committed.push(x);
                 Ok(())
             },
-            None,
         )
         .unwrap();
         assert!(capped.p[0] <= 0.5, "{capped:?}");
         assert_eq!(committed.len(), capped.history.len());
-        let err = bounded_lm(
+        let err = unbounded(
             [1.0, 1.0],
-            &free(),
-            &settings(),
-            &|_| {},
             &mut eval,
             &mut |x: f64, _: &mut DMatrix<f64>| {
                 if x > 0.5 {
@@ -584,7 +547,6 @@ mod tests {
                     Ok(())
                 }
             },
-            None,
         )
         .unwrap_err();
         assert!(matches!(

@@ -751,8 +751,7 @@ fn lm_search(
     let mut correction: Option<DMatrix<f64>> = None;
     let mut previous: Option<(DVector<f64>, DVector<f64>, DMatrix<f64>)> = None;
     let mut commit = |(x, r, solved): Trial, jacobian: &mut DMatrix<f64>| -> Result<(), FitError> {
-        let point: Vec<f64> = x.iter().copied().collect();
-        let mut frozen = objective.jacobian(&solved, space, &point)?;
+        let mut frozen = objective.jacobian(&solved, space, x.as_slice())?;
         // The geometric parameters' columns (zero in the frozen Jacobian): forward differences,
         // towards the box's inside, or away from it when that point has no equilibrium; a
         // column stays zero when neither has one.
@@ -760,7 +759,7 @@ fn lm_search(
             let d = GEOMETRY_DIFFERENCE_STEP;
             let step = if x[k] + d <= 1.0 { d } else { -d };
             for h in [step, -step] {
-                let mut q: Vec<f64> = x.iter().copied().collect();
+                let mut q = x.as_slice().to_vec();
                 q[k] = (q[k] + h).clamp(0.0, 1.0);
                 if q[k] == x[k] {
                     // Outside the box (the point lies on a bound): no difference that way.
