@@ -26,7 +26,7 @@
 //! - `newton-jacobi`, `newton-ic`: the same with preconditioned CG (Jacobi or IC(0),
 //!   relative tolerance 1e-8);
 //! - `linear-chol`, `linear-jacobi`, `linear-ic`: linearized implicit Euler
-//!   ([`StepSettings::linearized_implicit_euler`]: one Newton iteration, no line search),
+//!   ([`StepSettings::linearized_implicit_euler`]: one damped Newton iteration),
 //!   Cholesky or CG (relative tolerance 1e-6);
 //! - `linear-chol-lag`, `linear-ic-lag`: the same with the Rayleigh-β matrices refreshed
 //!   every 10 steps ([`StepSettings::damping_refresh_steps`]);

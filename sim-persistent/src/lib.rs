@@ -19,7 +19,7 @@
 //! | [`experiment`] | swatch experiments: settle, clamp sets (rows, sides, columns), rib stretch, load cycles, drops onto a sphere with sticking contacts, drape measures, yarn pull-out with contact breaking, garments knitted in the round dressed on body meshes | seed 000 §4.5, §5.2, §5.3 |
 //! | [`scene`] | TOML scene files (knit or woven pattern, Table 1 preset + overrides, damping, force terms, crossing shear, obstacles (spheres, planes, OBJ meshes and sequences; optionally sticking), clamps with drivers, outputs); the `sim-persistent run` binary | issue 6 |
 //! | [`output`] | smooth rendering curves (per-node plane normals fitted by SVD, ±R yarn offsets, centripetal Catmull-Rom); OBJ, PLY, `.bcc` and PNG frame writers | seed 000 §3.2 |
-//! | [`integrator`] | backward Euler as one Newton minimization per step (step halving on failure, optional friction return mapping) or linearized (one Newton step), sparse Cholesky or preconditioned CG, Rayleigh damping, pinned and driven nodes, obstacles, static equilibrium for quasi-static loading, clamp forces, per-term energies | seed 000 §4, §5 |
+//! | [`integrator`] | backward Euler as one Newton minimization per step (step halving on failure, optional friction return mapping) or linearized (one damped Newton step), sparse Cholesky or preconditioned CG, Rayleigh damping, pinned and driven nodes, obstacles, static equilibrium for quasi-static loading, clamp forces, per-term energies | seed 000 §4, §5 |
 //!
 //! Typical use: [`chart::Chart`] → [`topology::Topology::knit`] → [`layout::Layout::new`] →
 //! [`integrator::Simulator::new`] → [`integrator::Simulator::step`].

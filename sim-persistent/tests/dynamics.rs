@@ -217,6 +217,13 @@ fn invalid_input_is_rejected() {
         settings,
     );
     assert!(matches!(r, Err(SimError::Invalid(_))));
+    for shrink in [0.0, 1.0, f64::NAN] {
+        let settings = StepSettings {
+            max_material_shrink: Some(shrink),
+            ..StepSettings::default()
+        };
+        assert!(matches!(settings.validate(), Err(SimError::Invalid(_))));
+    }
     // A layout with a sliding coordinate missing at one node.
     let mut short = layout.clone();
     short.sliding[0].clear();

@@ -3,10 +3,12 @@
 //! sweeping the time step (with the friction return mapping and with the paper's explicit
 //! anchor update, the simulator's default), the Newton tolerance, and the time step of the
 //! fast configuration (linearized implicit Euler, one Newton iteration per step, IC(0)-CG
-//! at relative tolerance 1e-3, the diagonal shift warm-started from step to step: what
-//! `examples/scaling.rs` times at 1 M DoFs), and the same with every CG solve started from
-//! the previous step's solution (`StepSettings::warm_started_cg`), so that its speed is
-//! reported with its error.
+//! at relative tolerance 1e-3, the diagonal shift warm-started from step to step, damped by
+//! the line search and the material-length bound of `StepSettings::linearized_implicit_euler`:
+//! what `examples/scaling.rs` times at 1 M DoFs), the same with every CG solve started from
+//! the previous step's solution (`StepSettings::warm_started_cg`), and the same at full
+//! length as seed 000's ref. 6 (no line search, no bound), so that its speed is reported
+//! with its error.
 //!
 //! Every pull starts from one rib settled free at the reference settings, so the error is
 //! that of the pull alone (earlier versions settled each run with its own step and folded
@@ -27,6 +29,13 @@
 //! (the `friction_dt` example of `sim-persistent` measures its pull falling as dt shrinks:
 //! 2.7, 0.88, 0.38, 0.10 N at 1, 0.25, 0.1, 0.025 ms, against 4.2–4.7 mN with the return
 //! mapping at every one of these steps).
+//!
+//! Full mode (8 × 6 rib pulled 20 mm; reports/README.md for the current numbers): the
+//! linearized steps, damped, reach 20 / 28 % at dt = 0.25 / 0.5 ms (full Newton: 15 / 16 %)
+//! in 0.6–0.7× full Newton's time, but 6–84× the peak pull at 1–10 ms, where their return
+//! mapping often runs out of re-solves; at full length (family 8) segments invert and the
+//! error is 5e4–3e9× the peak pull at every step. On the hat the damping costs accuracy at
+//! 1–2 ms (one backtracked step; `StepSettings::linearized_implicit_euler`).
 
 use anyhow::Context;
 
@@ -40,7 +49,7 @@ pub fn spec() -> FigureSpec {
     FigureSpec {
         name: "persistent-time-vs-error",
         title: "Persistent contacts: run time against rib-stretch force error",
-        shows: "wall time of a rib-stretch pull (one shared settle, then a pull per setting) against the RMS error of its force curve (relative to the reference's peak pull) vs a small-step, tight-tolerance reference with Coulomb-consistent friction (return mapping); families: time step with the return mapping, time step with the paper's explicit anchor update, Newton force tolerance, time step with linearized steps and IC-CG (the fast configuration, shift warm-started), the same with warm-started CG",
+        shows: "wall time of a rib-stretch pull (one shared settle, then a pull per setting) against the RMS error of its force curve (relative to the reference's peak pull) vs a small-step, tight-tolerance reference with Coulomb-consistent friction (return mapping); families: time step with the return mapping, time step with the paper's explicit anchor update, Newton force tolerance, time step with linearized steps and IC-CG (the fast configuration: one Newton iteration per step and re-solve, damped by the line search and a bound on segment shrinkage, shift warm-started), the same with warm-started CG, the same at full length (ref. 6: no line search, no bound)",
         paper: "our study (no paper figure); the paper runs dt = 1 ms",
         guarded: false,
         run,
@@ -61,14 +70,17 @@ enum Family {
     Linearized(f64),
     /// [`Family::Linearized`] with every CG solve started from the previous solution.
     LinearizedWarmCg(f64),
+    /// [`Family::Linearized`] at full length, as seed 000's ref. 6 (no line search, no
+    /// material-length bound: `SwatchSettings::linearized_full_steps`).
+    LinearizedFull(f64),
 }
 
 /// Relative CG tolerance of the linearized family (scaling's `linear-ic-lag-3`).
 const LINEARIZED_CG_TOL: f64 = 1e-3;
 
 /// The rib families' [`Family::index`] (the table's `family` code) and legend names; codes
-/// 4, 5 and 7 are the garment study's.
-const FAMILIES: [(usize, &str); 5] = [
+/// 4, 5, 7 and 9 are the garment study's.
+const FAMILIES: [(usize, &str); 6] = [
     (0, "time step, implicit friction (return mapping)"),
     (1, "time step, explicit anchor update (paper)"),
     (2, "Newton tolerance (dt = 1 ms, implicit friction)"),
@@ -76,6 +88,10 @@ const FAMILIES: [(usize, &str); 5] = [
     (
         6,
         "time step, linearized, warm-started IC-CG (implicit friction)",
+    ),
+    (
+        8,
+        "time step, linearized at full length (ref. 6), IC-CG (implicit friction)",
     ),
 ];
 
@@ -87,6 +103,7 @@ impl Family {
             Family::Tolerance(_) => 2,
             Family::Linearized(_) => 3,
             Family::LinearizedWarmCg(_) => 6,
+            Family::LinearizedFull(_) => 8,
         }
     }
 
@@ -96,23 +113,28 @@ impl Family {
             | Family::DtExplicit(v)
             | Family::Tolerance(v)
             | Family::Linearized(v)
-            | Family::LinearizedWarmCg(v) => v,
+            | Family::LinearizedWarmCg(v)
+            | Family::LinearizedFull(v) => v,
         }
     }
 
     /// The pull settings of this run.
     fn settings(self, reference_tol: f64) -> SwatchSettings {
         let (dt, tol, return_mapping) = match self {
-            Family::Dt(dt) | Family::Linearized(dt) | Family::LinearizedWarmCg(dt) => {
-                (dt, reference_tol, true)
-            }
+            Family::Dt(dt)
+            | Family::Linearized(dt)
+            | Family::LinearizedWarmCg(dt)
+            | Family::LinearizedFull(dt) => (dt, reference_tol, true),
             Family::DtExplicit(dt) => (dt, reference_tol, false),
             Family::Tolerance(t) => (1e-3, t, true),
         };
         let mut s = settings(dt, tol, return_mapping);
-        if let Family::Linearized(_) | Family::LinearizedWarmCg(_) = self {
+        if let Family::Linearized(_) | Family::LinearizedWarmCg(_) | Family::LinearizedFull(_) =
+            self
+        {
             s.linearized_cg = Some(LINEARIZED_CG_TOL);
             s.cg_warm_start = matches!(self, Family::LinearizedWarmCg(_));
+            s.linearized_full_steps = matches!(self, Family::LinearizedFull(_));
         }
         s
     }
@@ -125,6 +147,9 @@ impl Family {
             Family::Linearized(dt) => format!("dt = {:.4} ms, linearized, IC-CG", 1e3 * dt),
             Family::LinearizedWarmCg(dt) => {
                 format!("dt = {:.4} ms, linearized, warm-started IC-CG", 1e3 * dt)
+            }
+            Family::LinearizedFull(dt) => {
+                format!("dt = {:.4} ms, linearized at full length, IC-CG", 1e3 * dt)
             }
         }
     }
@@ -199,6 +224,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     runs.extend(tolerances.iter().map(|&t| Family::Tolerance(t)));
     runs.extend(dts.iter().map(|&d| Family::Linearized(d)));
     runs.extend(dts.iter().map(|&d| Family::LinearizedWarmCg(d)));
+    runs.extend(dts.iter().map(|&d| Family::LinearizedFull(d)));
     let progress = ctx.progress(runs.len() as u64 + 2, "runs");
     let reference_settings = settings(reference_dt, reference_tol, true);
     // The settle uses the simulator's default (explicit) friction update.
@@ -219,7 +245,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         "newton_iterations",
         "dofs",
     ]);
-    let mut points: [Vec<(f64, f64)>; 7] = Default::default();
+    let mut points: [Vec<(f64, f64)>; 9] = Default::default();
     let mut summary = vec![
         (
             "settle (shared)".to_string(),
@@ -302,7 +328,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             "size": if q { "4x4" } else { "8x6" },
             "reference_dt_s": reference_dt, "reference_newton_abs_tol_n": reference_tol,
             "dts_s": dts, "tolerances_n": tolerances,
-            "linearized": {"cg_relative_tolerance": LINEARIZED_CG_TOL, "preconditioner": "IC(0)", "shift": "warm-started", "warm_started_cg_family": 6},
+            "linearized": {"cg_relative_tolerance": LINEARIZED_CG_TOL, "preconditioner": "IC(0)", "shift": "warm-started", "max_material_shrink": sim_persistent::integrator::LINEARIZED_MAX_SHRINK, "warm_started_cg_family": 6, "full_length_family": 8},
             "garment": {"hat": if q { "hat_chart(8, 4, 2, 4)" } else { "hat_chart(8, 6, 3, 6)" }, "time_s": GARMENT_TIME, "reference_dt_s": GARMENT_REFERENCE_DT, "dts_s": GARMENT_DTS},
         }),
         data,
@@ -322,11 +348,12 @@ const GARMENT_DTS: [f64; 3] = [5e-4, 1e-3, 2e-3];
 /// The same study on a garment: a hat knitted in the round dressed on a head mesh
 /// (`sim_persistent::experiment::garment`, the `garment` figure's scene, smaller), simulated
 /// for [`GARMENT_TIME`] with full Newton (Cholesky, the default) and with linearized steps and
-/// IC-CG (the fast configuration), with and without warm-started CG, at each of
-/// [`GARMENT_DTS`]. Error: RMS over the nodes of the distance to the reference's node
-/// positions at the end, in yarn radii. Rows of family 4 (full Newton), 5 (linearized) and 7
-/// (linearized, warm-started CG) in the table, their `error` column in yarn radii (the rib
-/// families 0–3 and 6 hold the relative force error there); chart `…-garment`.
+/// IC-CG (the fast configuration), with and without warm-started CG, and at full length
+/// (ref. 6), at each of [`GARMENT_DTS`]. Error: RMS over the nodes of the distance to the
+/// reference's node positions at the end, in yarn radii. Rows of family 4 (full Newton), 5
+/// (linearized), 7 (linearized, warm-started CG) and 9 (linearized at full length) in the
+/// table, their `error` column in yarn radii (the rib families 0–3, 6 and 8 hold the
+/// relative force error there); chart `…-garment`.
 fn garment_study(
     ctx: &FigureContext,
     data: &mut Table,
@@ -342,12 +369,14 @@ fn garment_study(
     let chart = hat_chart(sectors, width, brim, body)?;
     let profile = head_for_hat(sectors * width);
     type Run = (Vec<rod::geometry::V3>, f64, usize, f64, usize);
-    /// Full Newton, linearized IC-CG, linearized with warm-started CG.
+    /// Full Newton, linearized IC-CG, linearized with warm-started CG, linearized at full
+    /// length (ref. 6).
     #[derive(Clone, Copy, PartialEq)]
     enum Method {
         Newton,
         Linearized,
         LinearizedWarmCg,
+        LinearizedFull,
     }
     let simulate = |dt: f64, method: Method| -> anyhow::Result<Run> {
         let mut settings = StepSettings {
@@ -361,6 +390,10 @@ fn garment_study(
         }
         if method == Method::LinearizedWarmCg {
             settings = settings.warm_started_cg();
+        }
+        if method == Method::LinearizedFull {
+            settings.newton.line_search = false;
+            settings.max_material_shrink = None;
         }
         let mut d = Dressing::new(&chart, &profile, 48, settings)?;
         let steps = (GARMENT_TIME / dt).round() as usize;
@@ -387,7 +420,7 @@ fn garment_study(
             reference.len()
         ),
     ));
-    const METHODS: [(Method, f64, &str); 3] = [
+    const METHODS: [(Method, f64, &str); 4] = [
         (Method::Newton, 4.0, "full Newton, Cholesky"),
         (Method::Linearized, 5.0, "linearized steps, IC-CG"),
         (
@@ -395,8 +428,13 @@ fn garment_study(
             7.0,
             "linearized steps, warm-started IC-CG",
         ),
+        (
+            Method::LinearizedFull,
+            9.0,
+            "linearized steps at full length (ref. 6), IC-CG",
+        ),
     ];
-    let mut points: [Vec<(f64, f64)>; 3] = Default::default();
+    let mut points: [Vec<(f64, f64)>; 4] = Default::default();
     for (k, &(method, family, label)) in METHODS.iter().enumerate() {
         for dt in GARMENT_DTS {
             let name = format!("garment, dt = {:.2} ms, {label}", 1e3 * dt);

@@ -47,6 +47,10 @@ pub struct SwatchSettings {
     /// With `linearized_cg`: start every CG solve from the previous one's solution
     /// ([`StepSettings::warm_started_cg`]). Default false.
     pub cg_warm_start: bool,
+    /// With `linearized_cg`: take every linearized step at full length, as seed 000's ref. 6
+    /// does (no line search, no [`StepSettings::max_material_shrink`]) instead of damped
+    /// ([`StepSettings::linearized_implicit_euler`]). Default false.
+    pub linearized_full_steps: bool,
 }
 
 impl Default for SwatchSettings {
@@ -66,6 +70,7 @@ impl Default for SwatchSettings {
             construction: Construction::default(),
             linearized_cg: None,
             cg_warm_start: false,
+            linearized_full_steps: false,
         }
     }
 }
@@ -84,6 +89,10 @@ impl SwatchSettings {
             s = s.linearized_ic_cg(tol);
             if self.cg_warm_start {
                 s = s.warm_started_cg();
+            }
+            if self.linearized_full_steps {
+                s.newton.line_search = false;
+                s.max_material_shrink = None;
             }
         }
         s

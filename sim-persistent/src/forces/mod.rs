@@ -150,6 +150,18 @@ pub enum TermKind {
 pub struct Potential {
     terms: Terms,
     kinds: Vec<TermKind>,
+    /// The bound on material-length steps ([`Potential::bound_material_steps`]), if any.
+    material_steps: Option<MaterialStepBound>,
+}
+
+/// A bound on how far one Newton step may shrink the material length `L = u₁ − u₀` of
+/// segments ([`Potential::bound_material_steps`]).
+#[derive(Clone, Debug)]
+struct MaterialStepBound {
+    /// The `(u₀, u₁)` DOFs of each bounded segment.
+    segments: Vec<[usize; 2]>,
+    /// The largest fraction of its length a segment may lose in one step, in `(0, 1)`.
+    max_shrink: f64,
 }
 
 impl Potential {
@@ -158,7 +170,22 @@ impl Potential {
         Self {
             terms: Terms::new(n_dofs),
             kinds: Vec::new(),
+            material_steps: None,
         }
+    }
+
+    /// Bounds every Newton step on this potential ([`solver::Problem::max_step`]) so that no
+    /// segment among `segments` (the DOFs `(u₀, u₁)` of its sliding coordinates) loses more
+    /// than the fraction `max_shrink ∈ (0, 1)` of its material length `L = u₁ − u₀` in one
+    /// step: the step fraction is `α_max = min over shrinking segments of
+    /// max_shrink · L / (−ΔL)` (a fraction-to-the-boundary rule as in interior-point
+    /// methods, Wächter & Biegler 2006, Eq. 15, on the constraint `L > 0`). `None` removes
+    /// the bound. A segment that starts with `L ≤ 0` does not bound the step.
+    pub fn bound_material_steps(&mut self, bound: Option<(Vec<[usize; 2]>, f64)>) {
+        self.material_steps = bound.map(|(segments, max_shrink)| MaterialStepBound {
+            segments,
+            max_shrink,
+        });
     }
 
     /// Appends the stencil `stencil` of kind `kind` on the global DOFs `dofs`; returns its
@@ -171,7 +198,8 @@ impl Potential {
         self.terms.push_stencil(stencil, dofs)
     }
 
-    /// Moves every term of `other` (same number of coordinates) to the end, in order.
+    /// Moves every term of `other` (same number of coordinates) to the end, in order (its
+    /// material-step bound, if any, is not carried over).
     pub fn append(&mut self, other: Potential) {
         self.terms.append(other.terms);
         self.kinds.extend(other.kinds);
@@ -332,6 +360,20 @@ impl solver::Problem for Potential {
 
     fn stencil_energy(&self, k: usize, x: &[f64]) -> f64 {
         self.terms.stencil_energy(k, x)
+    }
+
+    fn max_step(&self, x: &[f64], dx: &[f64]) -> f64 {
+        let Some(bound) = &self.material_steps else {
+            return f64::INFINITY;
+        };
+        bound
+            .segments
+            .iter()
+            .filter_map(|&[a, b]| {
+                let (length, change) = (x[b] - x[a], dx[b] - dx[a]);
+                (length > 0.0 && change < 0.0).then(|| bound.max_shrink * length / -change)
+            })
+            .fold(f64::INFINITY, f64::min)
     }
 }
 
@@ -516,4 +558,34 @@ pub fn friction_springs(layers: &[usize], parallel: &[bool]) -> (Vec<usize>, Vec
         })
         .collect();
     (own, pairs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use solver::Problem;
+
+    /// The material-length bound: the step fraction at which the first shrinking segment
+    /// has lost `max_shrink` of its length; growing segments, segments that start inverted
+    /// and an unbounded potential impose nothing.
+    #[test]
+    fn material_steps_stop_where_a_segment_has_lost_its_share() {
+        let mut p = Potential::new(6);
+        // Segments (0, 1): L = 1, shrinking at 4 per unit step; (2, 3): L = 2, shrinking at
+        // 2; (4, 5): L = −1 (inverted), shrinking.
+        let x = [0.0, 1.0, 0.0, 2.0, 1.0, 0.0];
+        let dx = [1.0, -3.0, 0.0, -2.0, 0.0, -5.0];
+        assert_eq!(p.max_step(&x, &dx), f64::INFINITY);
+        p.bound_material_steps(Some((vec![[0, 1], [2, 3], [4, 5]], 0.5)));
+        let alpha = p.max_step(&x, &dx);
+        assert!((alpha - 0.125).abs() < 1e-15, "{alpha}");
+        let length = |a: f64| (x[1] + a * dx[1]) - (x[0] + a * dx[0]);
+        assert!((length(alpha) - 0.5).abs() < 1e-15);
+        // Reversed, every segment grows.
+        let back: Vec<f64> = dx.iter().map(|d| -d).collect();
+        p.bound_material_steps(Some((vec![[0, 1], [2, 3]], 0.5)));
+        assert_eq!(p.max_step(&x, &back), f64::INFINITY);
+        p.bound_material_steps(None);
+        assert_eq!(p.max_step(&x, &dx), f64::INFINITY);
+    }
 }

@@ -46,9 +46,10 @@
 //!   the largest part of a step's setup).
 //! - *Linear solver and linearization.* The Newton system is solved by sparse Cholesky
 //!   (default) or preconditioned conjugate gradients (`StepSettings::newton.linear_solver`);
-//!   [`StepSettings::linearized_implicit_euler`] stops after one Newton iteration without
-//!   line search (linearized backward Euler, as in seed 000's ref. 6), reporting the
-//!   residual it leaves.
+//!   [`StepSettings::linearized_implicit_euler`] stops after one Newton iteration
+//!   (linearized backward Euler, as in seed 000's ref. 6), damped by the line search and a
+//!   bound on how far the step may shrink segments ([`StepSettings::max_material_shrink`]),
+//!   reporting the residual it leaves.
 //! - *Step halving.* A step whose Newton solve fails (far from the minimizer, e.g. the first
 //!   undamped step from a layout that is not at rest) is replaced by two half steps,
 //!   recursively ([`StepSettings::max_halvings`]); the state only changes on success.
@@ -63,7 +64,9 @@
 mod settings;
 mod step;
 
-pub use settings::{CARRIED_SHIFT_PROBE_INTERVAL, SimError, StepReport, StepSettings};
+pub use settings::{
+    CARRIED_SHIFT_PROBE_INTERVAL, LINEARIZED_MAX_SHRINK, SimError, StepReport, StepSettings,
+};
 
 use crate::forces::compression::{CompressionEstimator, NodeCompression};
 use crate::forces::friction::{AnchoredSpring, ParallelSpring};
@@ -220,6 +223,7 @@ impl Simulator {
         for d in &segment_dofs {
             step.push(TermKind::Inertia, Quadratic::<8>::zero(), *d);
         }
+        step.bound_material_steps(material_step_bound(&settings, &segment_dofs));
         let mut damped = Vec::new();
         if settings.rayleigh_beta > 0.0 {
             for k in 0..elastic.len() {
@@ -689,10 +693,22 @@ impl Simulator {
                 "Rayleigh β damping cannot be switched on or off after construction".into(),
             ));
         }
+        self.step
+            .bound_material_steps(material_step_bound(&settings, &self.segment_dofs));
         self.settings = settings;
         self.damping_built = None;
         Ok(())
     }
+}
+
+/// The material-length step bound of `settings` ([`StepSettings::max_material_shrink`]) on
+/// the segments with DOFs `segment_dofs` (`(x₀, u₀, x₁, u₁)`).
+fn material_step_bound(
+    settings: &StepSettings,
+    segment_dofs: &[[usize; 8]],
+) -> Option<(Vec<[usize; 2]>, f64)> {
+    let shrink = settings.max_material_shrink?;
+    Some((segment_dofs.iter().map(|d| [d[3], d[7]]).collect(), shrink))
 }
 
 /// Checks the inputs of [`Simulator::new`]: parameters, settings, topology, and that the

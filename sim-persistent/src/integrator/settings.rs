@@ -47,9 +47,14 @@ pub struct StepSettings {
     /// explicit update, and [`StepReport::friction_unresolved`] counts it. With Rayleigh
     /// β > 0 the friction springs get no β-damping form under the return mapping (it would
     /// brake slipping coordinates by `β k_f u̇`). With
-    /// [`StepSettings::linearized_implicit_euler`] each re-solve adds one more Newton
-    /// iteration without line search, so the step is no longer a single linearized solve.
+    /// [`StepSettings::linearized_implicit_euler`] each re-solve adds one more (damped)
+    /// Newton iteration, so the step is no longer a single linearized solve.
     pub friction_return_mapping: usize,
+    /// If set, the largest fraction `∈ (0, 1)` of its material length `L = u₁ − u₀` a segment
+    /// may lose in one Newton iteration: every step is shortened to keep it
+    /// ([`crate::forces::Potential::bound_material_steps`]), with or without a line search.
+    /// Default `None` (no bound).
+    pub max_material_shrink: Option<f64>,
 }
 
 impl StepSettings {
@@ -75,6 +80,7 @@ impl Default for StepSettings {
             wrapping_ramp_time: 0.1,
             damping_refresh_steps: 1,
             friction_return_mapping: 0,
+            max_material_shrink: None,
         }
     }
 }
@@ -102,15 +108,45 @@ impl StepSettings {
                 "damping_refresh_steps must be ≥ 1".into(),
             ));
         }
+        if let Some(f) = self.max_material_shrink
+            && !(f > 0.0 && f < 1.0)
+        {
+            return Err(SimError::Invalid(format!(
+                "max_material_shrink must be in (0, 1), got {f}"
+            )));
+        }
         self.newton.validate()?;
         Ok(())
     }
 
     /// These settings with *linearized* implicit Euler: one Newton iteration per step from
-    /// `qₙ`, taken at full length without a line search (the integrator of seed 000's ref. 6,
-    /// Cirio et al. 2014, i.e. Baraff & Witkin 1998's linearized backward Euler:
-    /// `(M + h D + h² K) Δv = h (f − D vₙ − h K vₙ)`, which is exactly the first Newton step on
-    /// the incremental potential). The step is not iterated to convergence; its Newton report
+    /// `qₙ` (the integrator of seed 000's ref. 6, Cirio et al. 2014, i.e. Baraff & Witkin
+    /// 1998's linearized backward Euler: `(M + h D + h² K) Δv = h (f − D vₙ − h K vₙ)`, which
+    /// is exactly the first Newton step on the incremental potential), *damped* (ours): the
+    /// step keeps the backtracking line search on the incremental potential, and no segment
+    /// may lose more than half its material length in it ([`StepSettings::max_material_shrink`]
+    /// = [`LINEARIZED_MAX_SHRINK`] unless already set). Ref. 6 takes the step at full length;
+    /// that is `newton.line_search = false` and `max_material_shrink = None` after this call.
+    /// Why (measured on `persistent-time-vs-error`'s rib pull with the return mapping and
+    /// IC-CG at 1e-3, release, 2 cores): at full length a slipping sliding coordinate has only
+    /// its small u-inertia as stiffness and the segment floor has no gradient at its onset, so
+    /// one step drains segments past the floor and inverts them (material length < 0,
+    /// negative stretch energy). On the quick 4 × 4 rib pulled 8 mm (full-Newton pull 5–15
+    /// mN) the full-length pull reaches 21–180 N at dt = 1 ms; with the line search alone it
+    /// follows full Newton's at 1 ms but still jams (10–130 N) from 4–7 mm at 0.5 and 2 ms;
+    /// with the bound alone it jams at 1 ms (90–140 N); with both the forces stay within a few
+    /// mN of full Newton's at 0.25–2 ms and within 0.01–0.3 N at 5–10 ms. On the full 8 × 6
+    /// rib pulled 20 mm the RMS force error over the peak pull fell from 5e4–3e9 to 0.20 /
+    /// 0.28 / 6.1 / 19 / 78 / 84 at dt = 0.25 / 0.5 / 1 / 2 / 5 / 10 ms (full Newton: 0.15 /
+    /// 0.16 / 0.47 / 0.54 / 0.41, failed at 10 ms; the simulator's default, full Newton with
+    /// the explicit anchor update: 36 / 65 / failed / 211 / 452 / 686), in 0.6–0.7× full
+    /// Newton's time at 0.25–1 ms. The cost: on the hat of the same figure (no return
+    /// mapping, Rayleigh β) one of 50 steps at 1 ms backtracks to α = ½, and the RMS node
+    /// error after 0.05 s rises from 1.25 to 1.79 R at 1 ms and from 3.33 to 4.14 R at 2 ms
+    /// (0.83 R at 0.5 ms either way; the bound alone changes nothing there); on the dressed
+    /// 1 M-DoF sweater of `examples/scaling.rs` the line search took 0.29 of 8.3 s per step. A
+    /// step whose Armijo test passes at full length
+    /// costs one extra energy evaluation. The step is not iterated to convergence; its Newton report
     /// ends with [`solver::Termination::IterationLimit`] and still records the gradient
     /// residual of the incremental potential after the iteration
     /// ([`NewtonReport::residual_history`]), so the linearization error stays visible. A
@@ -141,8 +177,9 @@ impl StepSettings {
     /// dt = 0.5 / 1 / 2 ms).
     pub fn linearized_implicit_euler(mut self) -> Self {
         self.newton.max_iterations = 1;
-        self.newton.line_search = false;
         self.newton.accept_iteration_limit = true;
+        self.max_material_shrink
+            .get_or_insert(LINEARIZED_MAX_SHRINK);
         self.newton.warm_start_regularization = true;
         self
     }
@@ -171,11 +208,13 @@ impl StepSettings {
     /// (20 steps) and from 33 to 24 at 998 144 DoFs (10 steps; solve 4.34 → 3.81 s, step
     /// 7.30 → 7.14 s, single runs on a machine whose speed drifted by ±20 %). It is not the
     /// default: on the hat of
-    /// `persistent-time-vs-error`'s garment study it is 13–19 % faster at the same error at
-    /// dt = 0.5 and 1 ms (0.834 / 1.249 R against 0.832 / 1.247 R) but 6 % less accurate at
-    /// 2 ms (3.53 against 3.33 R). A warm-started CG solution need not be a descent direction,
-    /// so this is meant for steps without a line search
-    /// ([`StepSettings::linearized_implicit_euler`]).
+    /// `persistent-time-vs-error`'s garment study it is 8–12 % faster at about the same error
+    /// (RMS node error 0.834 / 1.794 / 4.071 R against 0.832 / 1.788 / 4.136 R at dt = 0.5 /
+    /// 1 / 2 ms; before linearized steps were damped, 0.834 / 1.249 / 3.53 R against 0.832 /
+    /// 1.247 / 3.33 R). A warm-started CG solution need not be a descent direction:
+    /// under a line search (linearized steps keep one,
+    /// [`StepSettings::linearized_implicit_euler`]) such a step fails it and is retried with a
+    /// diagonal shift, as after a failed solve.
     pub fn warm_started_cg(mut self) -> Self {
         if let solver::LinearSolver::ConjugateGradient(pcg) = &mut self.newton.linear_solver {
             pcg.warm_start = true;
@@ -183,6 +222,11 @@ impl StepSettings {
         self
     }
 }
+
+/// The [`StepSettings::max_material_shrink`] of linearized steps
+/// ([`StepSettings::linearized_implicit_euler`]): a segment may at most halve its material
+/// length in one step (0.5 and 0.9 were measured there; neither was better at every step).
+pub const LINEARIZED_MAX_SHRINK: f64 = 0.5;
 
 /// Steps between the probes of a carried diagonal shift, for linearized steps that opt in
 /// ([`StepSettings::linearized_implicit_euler`] explains why it is not the default).
