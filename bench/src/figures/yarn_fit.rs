@@ -299,14 +299,56 @@ pub fn settings(quick: bool) -> FitSettings {
 }
 
 /// One fitted fabric.
-struct Fitted {
-    name: String,
-    pattern: Pattern,
-    targets: Targets,
-    space: ParameterSpace,
-    result: FitResult,
-    shell_seconds: f64,
-    yarn_seconds: f64,
+pub struct Fitted {
+    /// The fabric's name.
+    pub name: String,
+    /// Its procedural pattern ([`pattern_of`]).
+    pub pattern: Pattern,
+    /// The shell's uniform target curves.
+    pub targets: Targets,
+    /// The fitted parameters ([`with_fitted_geometry`]).
+    pub space: ParameterSpace,
+    /// The yarn fit.
+    pub result: FitResult,
+    /// Wall time (s) of the shell fit and its target curves.
+    pub shell_seconds: f64,
+    /// Wall time (s) of the yarn fit.
+    pub yarn_seconds: f64,
+}
+
+/// The whole pipeline on one fabric: the shell fit and its uniform targets
+/// ([`shell_targets`]), then the yarn fit of its pattern with `settings` (the figure's:
+/// [`settings`]), each timed.
+pub fn fit_one(
+    fabric: &Fabric,
+    opts: &FabricFitOptions,
+    settings: &FitSettings,
+) -> anyhow::Result<Fitted> {
+    let t = Instant::now();
+    let targets = shell_targets(fabric, opts)?;
+    let shell_seconds = t.elapsed().as_secs_f64();
+    let pattern = pattern_of(&fabric.name)?;
+    let base = YarnModel::default_for_radius(RADIUS);
+    let (geometry, space) = geometry_and_space(pattern, &base, RADIUS)?;
+    let space = with_fitted_geometry(space)?;
+    let t = Instant::now();
+    let result = fit(
+        &geometry,
+        &targets,
+        &space,
+        settings,
+        &Journal::in_memory(),
+        &|_| {},
+    )?;
+    Ok(Fitted {
+        name: fabric.name.clone(),
+        pattern,
+        targets,
+        space,
+        result,
+        shell_seconds,
+        yarn_seconds: t.elapsed().as_secs_f64(),
+    })
 }
 
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
@@ -319,30 +361,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let progress = ctx.progress(all.len() as u64, "fabrics");
     let mut fitted = Vec::new();
     for fabric in &all {
-        let t = Instant::now();
-        let targets = shell_targets(fabric, &opts)?;
-        let shell_seconds = t.elapsed().as_secs_f64();
-        let pattern = pattern_of(&fabric.name)?;
-        let (geometry, space) = geometry_and_space(pattern, &base, RADIUS)?;
-        let space = with_fitted_geometry(space)?;
-        let t = Instant::now();
-        let result = fit(
-            &geometry,
-            &targets,
-            &space,
-            &settings,
-            &Journal::in_memory(),
-            &|_| {},
-        )?;
-        fitted.push(Fitted {
-            name: fabric.name.clone(),
-            pattern,
-            targets,
-            space,
-            result,
-            shell_seconds,
-            yarn_seconds: t.elapsed().as_secs_f64(),
-        });
+        fitted.push(fit_one(fabric, &opts, &settings)?);
         progress.inc(1);
     }
 

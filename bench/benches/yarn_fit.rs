@@ -1,0 +1,66 @@
+//! One fabric's whole yarn-parameter fit in wall time (issue 15's speed goal: ≤ 5 min on 2
+//! cores; the paper's average was 25 min on 256 cores).
+//!
+//! ```text
+//! cargo bench -p bench --bench yarn_fit [-- FABRIC ... | all]
+//! ```
+//!
+//! Runs the `yarn-fit` figure's pipeline ([`bench::figures::yarn_fit::fit_one`]: shell fit and
+//! uniform targets, then the swarm and Levenberg–Marquardt with the figure's full-mode
+//! settings) once per named fabric (default: the development fabric; `all`: every shared
+//! fabric) and prints the shell and yarn fit times, the objective evaluations of each phase,
+//! the yarn fit's seconds per evaluation, the final objective `g` and the comfort-range
+//! error. A fit is minutes long and deterministic, so it is timed once, not sampled.
+
+use bench::figures::yarn_fit::{DEVELOPMENT_FABRIC, fabrics, fit_one, settings};
+
+fn main() -> anyhow::Result<()> {
+    // `cargo bench` passes `--bench` (and the harness options) to the binary.
+    let names: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
+    let (all, opts) = fabrics(false)?;
+    let chosen: Vec<_> = if names.iter().any(|n| n == "all") {
+        all.iter().collect()
+    } else if names.is_empty() {
+        all.iter()
+            .filter(|f| f.name == DEVELOPMENT_FABRIC)
+            .collect()
+    } else {
+        let mut chosen = Vec::new();
+        for name in &names {
+            let Some(f) = all.iter().find(|f| &f.name == name) else {
+                let known: Vec<&str> = all.iter().map(|f| f.name.as_str()).collect();
+                anyhow::bail!("no fabric {name:?}; known: {}", known.join(", "));
+            };
+            chosen.push(f);
+        }
+        chosen
+    };
+    let settings = settings(false);
+    println!(
+        "yarn fit, full-mode settings, {} threads (goal: ≤ 300 s per fabric)",
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:<28} {:>9} {:>9} {:>7} {:>7} {:>9} {:>8} {:>8}",
+        "fabric", "shell s", "yarn s", "swarm", "local", "s / eval", "g", "comfort"
+    );
+    for fabric in chosen {
+        let f = fit_one(fabric, &opts, &settings)?;
+        let [swarm, local] = f.result.evaluations;
+        println!(
+            "{:<28} {:>9.1} {:>9.1} {:>7} {:>7} {:>9.3} {:>8.4} {:>7.1}%",
+            f.name,
+            f.shell_seconds,
+            f.yarn_seconds,
+            swarm,
+            local,
+            f.yarn_seconds / (swarm + local).max(1) as f64,
+            f.result.evaluation.value,
+            100.0 * f.result.evaluation.comfort_error
+        );
+    }
+    Ok(())
+}
