@@ -392,8 +392,7 @@ fn garment_study(
             settings = settings.warm_started_cg();
         }
         if method == Method::LinearizedFull {
-            settings.newton.line_search = false;
-            settings.max_material_shrink = None;
+            settings = settings.at_full_length();
         }
         let mut d = Dressing::new(&chart, &profile, 48, settings)?;
         let steps = (GARMENT_TIME / dt).round() as usize;

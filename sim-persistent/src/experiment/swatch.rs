@@ -48,7 +48,7 @@ pub struct SwatchSettings {
     /// ([`StepSettings::warm_started_cg`]). Default false.
     pub cg_warm_start: bool,
     /// With `linearized_cg`: take every linearized step at full length, as seed 000's ref. 6
-    /// does (no line search, no [`StepSettings::max_material_shrink`]) instead of damped
+    /// does ([`StepSettings::at_full_length`]) instead of damped
     /// ([`StepSettings::linearized_implicit_euler`]). Default false.
     pub linearized_full_steps: bool,
 }
@@ -91,8 +91,7 @@ impl SwatchSettings {
                 s = s.warm_started_cg();
             }
             if self.linearized_full_steps {
-                s.newton.line_search = false;
-                s.max_material_shrink = None;
+                s = s.at_full_length();
             }
         }
         s

@@ -125,8 +125,8 @@ impl StepSettings {
     /// is exactly the first Newton step on the incremental potential), *damped* (ours): the
     /// step keeps the backtracking line search on the incremental potential, and no segment
     /// may lose more than half its material length in it ([`StepSettings::max_material_shrink`]
-    /// = [`LINEARIZED_MAX_SHRINK`] unless already set). Ref. 6 takes the step at full length;
-    /// that is `newton.line_search = false` and `max_material_shrink = None` after this call.
+    /// = [`LINEARIZED_MAX_SHRINK`] unless already set). Ref. 6 takes the step at full length:
+    /// [`StepSettings::at_full_length`] after this call.
     /// Why (measured on `persistent-time-vs-error`'s rib pull with the return mapping and
     /// IC-CG at 1e-3, release, 2 cores): at full length a slipping sliding coordinate has only
     /// its small u-inertia as stiffness and the segment floor has no gradient at its onset, so
@@ -145,8 +145,9 @@ impl StepSettings {
     /// error after 0.05 s rises from 1.25 to 1.79 R at 1 ms and from 3.33 to 4.14 R at 2 ms
     /// (0.83 R at 0.5 ms either way; the bound alone changes nothing there); on the dressed
     /// 1 M-DoF sweater of `examples/scaling.rs` the line search took 0.29 of 8.3 s per step. A
-    /// step whose Armijo test passes at full length
-    /// costs one extra energy evaluation. The step is not iterated to convergence; its Newton report
+    /// step whose Armijo test passes at full length costs one extra energy evaluation.
+    ///
+    /// The step is not iterated to convergence; its Newton report
     /// ends with [`solver::Termination::IterationLimit`] and still records the gradient
     /// residual of the incremental potential after the iteration
     /// ([`NewtonReport::residual_history`]), so the linearization error stays visible. A
@@ -181,6 +182,15 @@ impl StepSettings {
         self.max_material_shrink
             .get_or_insert(LINEARIZED_MAX_SHRINK);
         self.newton.warm_start_regularization = true;
+        self
+    }
+
+    /// These settings with every Newton step taken at full length: no line search and no
+    /// [`StepSettings::max_material_shrink`] (seed 000's ref. 6 after
+    /// [`StepSettings::linearized_implicit_euler`], which explains why it is not the default).
+    pub fn at_full_length(mut self) -> Self {
+        self.newton.line_search = false;
+        self.max_material_shrink = None;
         self
     }
 
