@@ -34,7 +34,7 @@
 //! linearized steps, damped, reach 20 / 28 % at dt = 0.25 / 0.5 ms (full Newton: 15 / 16 %)
 //! in 0.6–0.7× full Newton's time, but 6–84× the peak pull at 1–10 ms, where their return
 //! mapping often runs out of re-solves; at full length (family 8) segments invert and the
-//! error is 5e4–3e9× the peak pull at every step. On the hat the damping costs accuracy at
+//! error is 5e4–3e10× the peak pull at every step. On the hat the damping costs accuracy at
 //! 1–2 ms (one backtracked step; `StepSettings::linearized_implicit_euler`).
 
 use anyhow::Context;

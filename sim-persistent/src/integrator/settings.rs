@@ -136,7 +136,7 @@ impl StepSettings {
     /// follows full Newton's at 1 ms but still jams (10–130 N) from 4–7 mm at 0.5 and 2 ms;
     /// with the bound alone it jams at 1 ms (90–140 N); with both the forces stay within a few
     /// mN of full Newton's at 0.25–2 ms and within 0.01–0.3 N at 5–10 ms. On the full 8 × 6
-    /// rib pulled 20 mm the RMS force error over the peak pull fell from 5e4–3e9 to 0.20 /
+    /// rib pulled 20 mm the RMS force error over the peak pull fell from 5e4–3e10 to 0.20 /
     /// 0.28 / 6.1 / 19 / 78 / 84 at dt = 0.25 / 0.5 / 1 / 2 / 5 / 10 ms (full Newton: 0.15 /
     /// 0.16 / 0.47 / 0.54 / 0.41, failed at 10 ms; the simulator's default, full Newton with
     /// the explicit anchor update: 36 / 65 / failed / 211 / 452 / 686), in 0.6–0.7× full
