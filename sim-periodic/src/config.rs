@@ -407,6 +407,7 @@ impl Config {
 /// particles = 16
 /// swarm_iterations = 6
 /// seed = 2022
+/// restarts = 1                  # independent swarms (seeds seed, seed + 1, …), lowest g wins
 /// inertia = [0.7213, 0.7213]    # swarm inertia weight, first and last iteration (paper: [0.9, 0.1])
 /// swarm_samples = 7             # stress samples per direction in the swarm
 /// local = "levenberg-marquardt" # or "cobyla" (the paper's)
@@ -474,6 +475,8 @@ pub struct FitOptions {
     pub swarm_iterations: u64,
     /// Swarm seed.
     pub seed: u64,
+    /// Independent restarts ([`crate::fit::SwarmSettings::restarts`]).
+    pub restarts: usize,
     /// The swarm's inertia weight at its first and last iteration
     /// ([`crate::fit::SwarmSettings::inertia`]).
     pub inertia: [f64; 2],
@@ -507,6 +510,7 @@ impl Default for FitOptions {
             particles: swarm.particles,
             swarm_iterations: swarm.iterations,
             seed: swarm.seed,
+            restarts: swarm.restarts,
             inertia: [swarm.inertia.0, swarm.inertia.1],
             swarm_samples: s.swarm_objective.samples,
             local: "levenberg-marquardt".into(),
@@ -596,6 +600,7 @@ impl FitConfig {
                 iterations: f.swarm_iterations,
                 seed: f.seed,
                 inertia: (f.inertia[0], f.inertia[1]),
+                restarts: f.restarts,
             }),
             start: None,
             swarm_objective: objective(f.swarm_samples),

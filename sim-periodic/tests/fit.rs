@@ -216,6 +216,59 @@ fn several_local_starts_keep_the_best_and_zero_is_an_error() {
     assert!(e.contains("local_starts"), "{e}");
 }
 
+/// Independent restarts: two restarts end exactly where the better of the two single fits
+/// with seeds `s` and `s + 1` ends, with the evaluations of both, and say which restart won;
+/// zero restarts are an error.
+#[test]
+fn restarts_keep_the_better_of_independent_seeds_and_zero_is_an_error() {
+    use sim_periodic::fit::SwarmSettings;
+    let geometry = geometry();
+    let (space, targets, objective) = small_weft_case(&geometry);
+    let settings = |seed: u64, restarts: usize| FitSettings {
+        swarm: Some(SwarmSettings {
+            particles: 4,
+            iterations: 1,
+            seed,
+            restarts,
+            ..SwarmSettings::default()
+        }),
+        swarm_objective: objective.clone(),
+        local_objective: objective.clone(),
+        local_evaluations: 3,
+        ..FitSettings::default()
+    };
+    let run = |seed: u64, restarts: usize| {
+        fit_in_memory(&geometry, &targets, &space, &settings(seed, restarts))
+    };
+    let (a, b) = (run(5, 1).unwrap(), run(6, 1).unwrap());
+    let both = run(5, 2).unwrap();
+    let (winner, index) = if b.evaluation.value < a.evaluation.value {
+        (&b, 2)
+    } else {
+        (&a, 1)
+    };
+    assert_eq!(both.x, winner.x);
+    assert_eq!(
+        both.evaluation.value.to_bits(),
+        winner.evaluation.value.to_bits()
+    );
+    assert!(
+        both.local_status
+            .starts_with(&format!("restart {index} of 2 (seed {})", 4 + index)),
+        "{}",
+        both.local_status
+    );
+    assert_eq!(
+        both.evaluations,
+        [
+            a.evaluations[0] + b.evaluations[0],
+            a.evaluations[1] + b.evaluations[1]
+        ]
+    );
+    let e = run(5, 0).unwrap_err().to_string();
+    assert!(e.contains("restarts"), "{e}");
+}
+
 /// The swarm's inertia: argmin's constant weight given explicitly reproduces the default fit
 /// bit for bit (the per-iteration weight setting changes nothing else), the paper's decaying
 /// schedule moves the swarm, and a negative weight is an error.

@@ -118,6 +118,12 @@ pub struct SwarmSettings {
     /// in between (the paper, §7.3.3: 0.9 to 0.1). Default: argmin's constant `1/(2 ln 2)`
     /// ([`constant_inertia`]) at both ends.
     pub inertia: (f64, f64),
+    /// Independent restarts of the whole fit (beyond the paper): swarms with the seeds
+    /// `seed, seed + 1, …`, each followed by its local search; the lowest final objective
+    /// wins (the first on ties). The cost grows linearly. The swarm's basin is chance: on the
+    /// development fabric of the `yarn-fit` figure four seeds ended at g 0.073–0.157
+    /// (`bench::figures::yarn_fit`'s docs). Default 1.
+    pub restarts: usize,
 }
 
 /// argmin's constant inertia weight of the particle swarm, `1/(2 ln 2)`.
@@ -132,6 +138,7 @@ impl Default for SwarmSettings {
             iterations: 6,
             seed: 2022,
             inertia: (constant_inertia(), constant_inertia()),
+            restarts: 1,
         }
     }
 }
@@ -440,11 +447,63 @@ pub fn fingerprint(
 /// particle swarm over the normalized box (unless `settings.swarm` is `None`), then the local
 /// method ([`FitSettings::local`]) from the swarm's best point (Levenberg–Marquardt: and from
 /// up to [`FitSettings::local_starts`]` − 1` more distinct swarm points, keeping the lowest
-/// objective), then one evaluation of the result with the local settings. Every swarm and COBYLA evaluation goes through `journal`
+/// objective), then one evaluation of the result with the local settings; with
+/// [`SwarmSettings::restarts`] all of it once per seed, keeping the lowest final objective
+/// (the result's evaluations and failures are summed over the restarts). Every swarm and COBYLA evaluation goes through `journal`
 /// (see [`journal`]), so an interrupted fit rerun with the same journal resumes and ends with
 /// the same result; Levenberg–Marquardt evaluations are not journaled (a rerun repeats them,
 /// deterministically).
 pub fn fit(
+    geometry: &yarn_pattern::tile::Tile,
+    targets: &Targets,
+    space: &ParameterSpace,
+    settings: &FitSettings,
+    journal: &Journal,
+    progress: &(dyn Fn(&Progress) + Sync),
+) -> Result<FitResult, FitError> {
+    let Some(swarm) = settings.swarm.as_ref().filter(|s| s.restarts != 1) else {
+        return fit_once(geometry, targets, space, settings, journal, progress);
+    };
+    if swarm.restarts == 0 {
+        return Err(FitError::Invalid(
+            "the swarm needs at least one run (restarts ≥ 1)".into(),
+        ));
+    }
+    // Independent restarts (SwarmSettings::restarts): the lowest final objective wins.
+    let mut best: Option<FitResult> = None;
+    let (mut evaluations, mut failed) = ([0, 0], 0);
+    for r in 0..swarm.restarts {
+        let mut once = settings.clone();
+        if let Some(s) = &mut once.swarm {
+            s.seed = swarm.seed.wrapping_add(r as u64);
+            s.restarts = 1;
+        }
+        let mut result = fit_once(geometry, targets, space, &once, journal, progress)?;
+        evaluations[0] += result.evaluations[0];
+        evaluations[1] += result.evaluations[1];
+        failed += result.failed;
+        result.local_status = format!(
+            "restart {} of {} (seed {}): {}",
+            r + 1,
+            swarm.restarts,
+            swarm.seed.wrapping_add(r as u64),
+            result.local_status
+        );
+        if best
+            .as_ref()
+            .is_none_or(|b| result.evaluation.value < b.evaluation.value)
+        {
+            best = Some(result);
+        }
+    }
+    let mut best = best.expect("at least one restart");
+    best.evaluations = evaluations;
+    best.failed = failed;
+    Ok(best)
+}
+
+/// One fit ([`fit`] without restarts).
+fn fit_once(
     geometry: &yarn_pattern::tile::Tile,
     targets: &Targets,
     space: &ParameterSpace,
