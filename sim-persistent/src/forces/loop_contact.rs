@@ -1,5 +1,5 @@
 //! Contact between adjacent loops (seed 000 §4: "for gravity, yarn stretch and contact
-//! between adjacent loops we use exactly the original formulations for woven cloth [6]").
+//! between adjacent loops we use exactly the original formulations for woven cloth \[6\]").
 //!
 //! Persistent contacts keep yarns that cross each other together, but nothing keeps two
 //! yarn pieces that merely lie side by side — neighbouring legs of adjacent loops, the two
