@@ -415,17 +415,6 @@ fn unsupported_stacks_are_errors() {
 /// time step `dt` and `return_mapping` re-solves of the friction return mapping (0: the
 /// paper's explicit anchor update); also the slips and unresolved steps of the pull.
 fn dynamic_pull(dt: f64, return_mapping: usize, travel: f64) -> (f64, usize, usize) {
-    dynamic_pull_with(dt, return_mapping, travel, |s| s)
-}
-
-/// [`dynamic_pull`] with the step settings of the pull (not of the static start) passed
-/// through `adjust`.
-fn dynamic_pull_with(
-    dt: f64,
-    return_mapping: usize,
-    travel: f64,
-    adjust: impl Fn(StepSettings) -> StepSettings,
-) -> (f64, usize, usize) {
     let (w, h) = (4, 4);
     let chart = Chart::garter(w, h).unwrap();
     let topo = Topology::knit(&chart);
@@ -452,7 +441,6 @@ fn dynamic_pull_with(
     sim.pin_nodes(&bottom).unwrap();
     sim.pin_nodes(&top).unwrap();
     sim.solve_static().unwrap();
-    sim.set_settings(adjust(sim.settings().clone())).unwrap();
     let speed = 0.1;
     let steps = (travel / (speed * dt)).round() as usize;
     let (mut slipped, mut unresolved) = (0, 0);

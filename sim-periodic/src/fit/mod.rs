@@ -449,7 +449,8 @@ pub fn fingerprint(
 /// up to [`FitSettings::local_starts`]` − 1` more distinct swarm points, keeping the lowest
 /// objective), then one evaluation of the result with the local settings; with
 /// [`SwarmSettings::restarts`] all of it once per seed, keeping the lowest final objective
-/// (the result's evaluations and failures are summed over the restarts). Every swarm and COBYLA evaluation goes through `journal`
+/// (the result's evaluations and failures are summed over the restarts; a restart that fails
+/// fails the fit). Every swarm and COBYLA evaluation goes through `journal`
 /// (see [`journal`]), so an interrupted fit rerun with the same journal resumes and ends with
 /// the same result; Levenberg–Marquardt evaluations are not journaled (a rerun repeats them,
 /// deterministically).
@@ -473,9 +474,10 @@ pub fn fit(
     let mut best: Option<FitResult> = None;
     let (mut evaluations, mut failed) = ([0, 0], 0);
     for r in 0..swarm.restarts {
+        let seed = swarm.seed.wrapping_add(r as u64);
         let mut once = settings.clone();
         if let Some(s) = &mut once.swarm {
-            s.seed = swarm.seed.wrapping_add(r as u64);
+            s.seed = seed;
             s.restarts = 1;
         }
         let mut result = fit_once(geometry, targets, space, &once, journal, progress)?;
@@ -483,10 +485,9 @@ pub fn fit(
         evaluations[1] += result.evaluations[1];
         failed += result.failed;
         result.local_status = format!(
-            "restart {} of {} (seed {}): {}",
+            "restart {} of {} (seed {seed}): {}",
             r + 1,
             swarm.restarts,
-            swarm.seed.wrapping_add(r as u64),
             result.local_status
         );
         if best
