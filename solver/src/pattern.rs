@@ -15,9 +15,11 @@ pub(crate) fn build_pattern(
     ncols: usize,
     coords: &[(usize, usize)],
 ) -> (SymbolicSparseColMat<usize>, Vec<usize>) {
-    // Sort entry ids column-major; ties are identical coordinates and share a slot.
-    let mut order: Vec<usize> = (0..coords.len()).collect();
-    order.sort_unstable_by_key(|&e| (coords[e].1, coords[e].0));
+    // Entry ids column-major, rows ascending within a column: a stable counting sort by row,
+    // then one by column (linear in the entries; ties are identical coordinates and share a
+    // slot, so their order does not matter).
+    let by_row = counting_sort(0..coords.len(), nrows, |e| coords[e].0);
+    let order = counting_sort(by_row.iter().copied(), ncols, |e| coords[e].1);
 
     let mut col_ptr = vec![0usize; ncols + 1];
     let mut row_idx = Vec::new();
@@ -39,6 +41,28 @@ pub(crate) fn build_pattern(
     (symbolic, slot)
 }
 
+/// `ids` stably sorted by `key(id) < buckets`.
+fn counting_sort(
+    ids: impl IntoIterator<Item = usize> + Clone,
+    buckets: usize,
+    key: impl Fn(usize) -> usize,
+) -> Vec<usize> {
+    let mut start = vec![0usize; buckets + 1];
+    for id in ids.clone() {
+        start[key(id) + 1] += 1;
+    }
+    for b in 0..buckets {
+        start[b + 1] += start[b];
+    }
+    let mut sorted = vec![0usize; start[buckets]];
+    for id in ids {
+        let k = key(id);
+        sorted[start[k]] = id;
+        start[k] += 1;
+    }
+    sorted
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -50,6 +74,38 @@ mod tests {
         assert_eq!(s.col_ptr(), &[0, 3, 4, 5]);
         assert_eq!(s.row_idx(), &[0, 1, 2, 1, 0]);
         assert_eq!(slot, vec![2, 0, 3, 2, 4, 1]);
+    }
+
+    #[test]
+    fn slots_match_a_sorted_map_of_the_coordinates() {
+        // Pseudo-random coordinates with many duplicates, on a non-square matrix.
+        let (nrows, ncols) = (7, 5);
+        let mut state = 12345u64;
+        let coords: Vec<(usize, usize)> = (0..300)
+            .map(|_| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let r = (state >> 33) as usize;
+                (r % nrows, (r / nrows) % ncols)
+            })
+            .collect();
+        let (s, slot) = build_pattern(nrows, ncols, &coords);
+        // The reference: distinct coordinates in column-major order, numbered.
+        let distinct: std::collections::BTreeMap<(usize, usize), usize> = coords
+            .iter()
+            .map(|&(r, c)| (c, r))
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .enumerate()
+            .map(|(i, k)| (k, i))
+            .collect();
+        assert_eq!(s.row_idx().len(), distinct.len());
+        for (e, &(r, c)) in coords.iter().enumerate() {
+            assert_eq!(slot[e], distinct[&(c, r)]);
+            assert_eq!(s.row_idx()[slot[e]], r);
+            assert!(s.col_ptr()[c] <= slot[e] && slot[e] < s.col_ptr()[c + 1]);
+        }
     }
 
     #[test]
