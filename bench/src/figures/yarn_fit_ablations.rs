@@ -188,7 +188,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             space = ParameterSpace::new(space.base, free)?;
         }
         if v.free_geometry {
-            space = with_fitted_geometry(space)?;
+            space = with_fitted_geometry(space, pattern, 1e-3)?;
         }
         let mut s: FitSettings = settings(ctx.quick);
         if !v.swarm {
