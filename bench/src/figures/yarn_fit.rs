@@ -207,8 +207,8 @@ pub fn geometry_and_space(
 }
 
 /// Bounds of the input geometry's stretch factors along x and y when they are fitted
-/// ([`with_fitted_geometry`]; along y scaled per pattern, [`geometry_bounds`]), chosen before any fit with them: ±25–35 % around the
-/// procedural proportions.
+/// ([`with_fitted_geometry`]; along y scaled per pattern, [`geometry_bounds`]), chosen before
+/// any fit with them: ±25–35 % around the procedural proportions.
 ///
 /// Wider bounds were measured on the development fabric only, with [`LOCAL_STARTS`] starts
 /// (release, 2 cores; reproducible with `sim-periodic fit` and its `geometry_x`, `geometry_y`
@@ -234,8 +234,8 @@ fn reference_course_height(radius: f64) -> f64 {
 /// courses start clear of each other), and for them the range is (0.5, 0.9).
 ///
 /// With [`GEOMETRY_BOUNDS`] along y for every pattern, the fitted stretch along y lay at its
-/// lower bound on both garters and both seeds (the committed full run before this function:
-/// garter 0.75 / 0.88, seed 0.75 / 0.75, acrylic / babyredo). Measured with (0.5, 1.35) along
+/// lower bound on the acrylic garter and both seeds, and at 0.88 on the babyredo garter (the
+/// committed full run before this function). Measured with (0.5, 1.35) along
 /// x and y on six fabrics (single fits, release, 2 cores, the figure's settings otherwise;
 /// against the committed run): acrylic garter g 0.271 → 0.186 (comfort-range error 19.9 →
 /// 12.8 %, stretch y 0.50), babyredo garter 0.889 → 0.191 (18.0 → 12.5 %, y 0.54), acrylic
@@ -596,4 +596,29 @@ fn curve_charts(f: &Fitted) -> (LineChart, LineChart) {
         ));
     }
     (stress, compression)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_pattern_gets_the_stockinette_course_height_range() {
+        let radius = 1e-3;
+        let stockinette = geometry_bounds(Pattern::Stockinette, radius);
+        assert_eq!(stockinette, [GEOMETRY_BOUNDS, GEOMETRY_BOUNDS]);
+        for pattern in [Pattern::Garter, Pattern::Seed, Pattern::Rib1x1] {
+            let bounds = geometry_bounds(pattern, radius);
+            assert_eq!(bounds[0], GEOMETRY_BOUNDS, "{}", pattern.name());
+            let h = pattern.default_params(radius).spacing[1];
+            let (lo, hi) = (bounds[1].0 * h / radius, bounds[1].1 * h / radius);
+            assert!(
+                (lo - 3.0).abs() < 1e-12 && (hi - 5.4).abs() < 1e-12,
+                "{lo} {hi}"
+            );
+        }
+        // Garter and seed courses are 6 R apart: (0.5, 0.9).
+        let garter = geometry_bounds(Pattern::Garter, radius)[1];
+        assert!((garter.0 - 0.5).abs() < 1e-12 && (garter.1 - 0.9).abs() < 1e-12);
+    }
 }
