@@ -173,9 +173,6 @@ pub fn symmetric_eigenvalues(h: &[f64], n: usize) -> Vec<f64> {
 /// a 12 × 12 matrix needs).
 fn jacobi_eigen<const N: usize>(a: &mut [[f64; N]; N], v: &mut [[f64; N]; N]) {
     let frob2: f64 = a.as_flattened().iter().map(|x| x * x).sum();
-    if frob2 == 0.0 {
-        return;
-    }
     for _sweep in 0..64 {
         let mut off = 0.0;
         for (j, column) in a.iter().enumerate() {

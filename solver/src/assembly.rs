@@ -40,7 +40,7 @@ use faer::sparse::{SparseColMat, SparseColMatRef};
 use rayon::prelude::*;
 
 use crate::SolveError;
-use crate::pattern::build_pattern;
+use crate::pattern::{build_pattern, counting_sort};
 use rod::spd::{MAX_PROJECT_DIM, project_spd};
 
 /// An energy that is a sum of per-stencil terms over a DOF vector `x` (SI units throughout;
@@ -113,21 +113,12 @@ impl Gather {
                 Local::MAX
             )));
         }
-        let mut ptr = vec![0usize; n_outputs + 1];
-        for &t in target.iter().filter(|&&t| t != SKIP) {
-            ptr[t + 1] += 1;
-        }
-        for o in 0..n_outputs {
-            ptr[o + 1] += ptr[o];
-        }
-        let mut next = ptr.clone();
-        let mut sources = vec![0; ptr[n_outputs]];
-        for (local, &t) in target.iter().enumerate() {
-            if t != SKIP {
-                sources[next[t]] = local as Local;
-                next[t] += 1;
-            }
-        }
+        let (ptr, sorted) = counting_sort(
+            (0..target.len()).filter(|&local| target[local] != SKIP),
+            n_outputs,
+            |local| target[local],
+        );
+        let sources = sorted.into_iter().map(|local| local as Local).collect();
         Ok(Self { ptr, sources })
     }
 

@@ -18,8 +18,8 @@ pub(crate) fn build_pattern(
     // Entry ids column-major, rows ascending within a column: a stable counting sort by row,
     // then one by column (linear in the entries; ties are identical coordinates and share a
     // slot, so their order does not matter).
-    let by_row = counting_sort(0..coords.len(), nrows, |e| coords[e].0);
-    let order = counting_sort(by_row.iter().copied(), ncols, |e| coords[e].1);
+    let (_, by_row) = counting_sort(0..coords.len(), nrows, |e| coords[e].0);
+    let (_, order) = counting_sort(by_row.iter().copied(), ncols, |e| coords[e].1);
 
     let mut col_ptr = vec![0usize; ncols + 1];
     let mut row_idx = Vec::new();
@@ -41,26 +41,28 @@ pub(crate) fn build_pattern(
     (symbolic, slot)
 }
 
-/// `ids` stably sorted by `key(id) < buckets`.
-fn counting_sort(
+/// `ids` stably sorted by `key(id) < buckets` (a counting sort), with the bucket offsets:
+/// bucket `b` is `sorted[ptr[b]..ptr[b + 1]]`. Returns `(ptr, sorted)`.
+pub(crate) fn counting_sort(
     ids: impl IntoIterator<Item = usize> + Clone,
     buckets: usize,
     key: impl Fn(usize) -> usize,
-) -> Vec<usize> {
-    let mut start = vec![0usize; buckets + 1];
+) -> (Vec<usize>, Vec<usize>) {
+    let mut ptr = vec![0usize; buckets + 1];
     for id in ids.clone() {
-        start[key(id) + 1] += 1;
+        ptr[key(id) + 1] += 1;
     }
     for b in 0..buckets {
-        start[b + 1] += start[b];
+        ptr[b + 1] += ptr[b];
     }
-    let mut sorted = vec![0usize; start[buckets]];
+    let mut next = ptr.clone();
+    let mut sorted = vec![0usize; ptr[buckets]];
     for id in ids {
         let k = key(id);
-        sorted[start[k]] = id;
-        start[k] += 1;
+        sorted[next[k]] = id;
+        next[k] += 1;
     }
-    sorted
+    (ptr, sorted)
 }
 
 #[cfg(test)]
