@@ -55,6 +55,15 @@ pub enum SolveError {
         .0.last_residual()
     )]
     LineSearchFailed(Box<NewtonReport>),
+    /// [`crate::NewtonSettings::stall_iterations`] iterations lowered neither the residual by
+    /// half nor the energy beyond its rounding allowance.
+    #[error(
+        "Newton stalled at iteration {} (residual {:.3e}, unchanged beyond rounding over the \
+         last iterations)",
+        .0.iterations,
+        .0.last_residual()
+    )]
+    Stalled(Box<NewtonReport>),
     /// The energy, gradient or Hessian was NaN or infinite at an accepted iterate.
     #[error("non-finite energy, gradient or Hessian at iteration {}", .0.iterations)]
     NonFinite(Box<NewtonReport>),
@@ -77,7 +86,10 @@ impl SolveError {
     /// The report of the failed run, for the variants that carry one.
     pub fn report(&self) -> Option<&NewtonReport> {
         match self {
-            Self::NotConverged(r) | Self::LineSearchFailed(r) | Self::NonFinite(r) => Some(r),
+            Self::NotConverged(r)
+            | Self::LineSearchFailed(r)
+            | Self::NonFinite(r)
+            | Self::Stalled(r) => Some(r),
             Self::FactorizationFailed { report, .. } => Some(report),
             _ => None,
         }

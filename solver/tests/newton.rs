@@ -289,6 +289,47 @@ fn line_search_starts_within_the_problem_step_filter() {
 }
 
 #[test]
+fn a_stalled_run_fails_early_and_a_progressing_one_is_unchanged() {
+    // A filter that admits moves of 1e-13 only: every step changes the energy by less than
+    // its rounding allowance and the residual not at all.
+    let stalled = Filtered(LogBarrier([0]), 1e-13);
+    let settings = NewtonSettings {
+        stall_iterations: 5,
+        ..Default::default()
+    };
+    let mut x = vec![10.0];
+    let err = minimize(&stalled, &mut x, &[false], &settings).unwrap_err();
+    let SolveError::Stalled(report) = &err else {
+        panic!("expected Stalled, got {err}")
+    };
+    assert_eq!(report.termination, Termination::Stalled);
+    assert_eq!(report.iterations, 5);
+    assert!(err.to_string().contains("stalled"), "{err}");
+    assert!((x[0] - 10.0).abs() <= 5e-13 * 1.01, "{}", x[0]);
+    // Without the setting the same run goes on to the iteration limit.
+    let mut x = vec![10.0];
+    let err = minimize(&stalled, &mut x, &[false], &NewtonSettings::default()).unwrap_err();
+    assert!(
+        matches!(err, SolveError::NotConverged(ref r) if r.iterations == 100),
+        "{err}"
+    );
+
+    // A run that makes progress in small filtered steps (at least 18 of them, each lowering
+    // the energy) is not stalled: the same iterates with and without the test.
+    let slow = Filtered(LogBarrier([0]), 0.5);
+    let tight = NewtonSettings {
+        stall_iterations: 2,
+        ..Default::default()
+    };
+    let (mut a, mut b) = (vec![10.0], vec![10.0]);
+    let with = minimize(&slow, &mut a, &[false], &tight).unwrap();
+    let without = minimize(&slow, &mut b, &[false], &NewtonSettings::default()).unwrap();
+    assert!(with.iterations >= 18, "{}", with.iterations);
+    assert_eq!(with.residual_history, without.residual_history);
+    assert_eq!(a, b);
+}
+
+#[test]
 fn invalid_settings_and_lengths_are_errors() {
     let chain = LinearChain::uniform(3, 1.0, 1.0);
     let mut x = vec![0.0; 3];

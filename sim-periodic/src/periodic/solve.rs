@@ -19,6 +19,32 @@ pub fn initial_dofs(tile: &Tile) -> Result<Vec<f64>, PeriodicError> {
     Ok(x)
 }
 
+/// Iterations without progress after which an equilibrium solve fails
+/// ([`solver::NewtonSettings::stall_iterations`]: the residual not halved and the energy not
+/// lowered beyond rounding over that many iterations).
+///
+/// Compression root-finds try states where Newton cannot make progress. Under large stretch,
+/// with the yarns jammed against each other, the line search accepts only steps of
+/// `0.5⁴⁰ ≈ 1e-12`, at about 100 energy evaluations per iteration. Elsewhere, full steps leave
+/// the residual at a rounding floor near 1e-8, above the tolerance. Such a solve, and its
+/// restart with more pairs, used to run to the 200-iteration limit. On the babyredo rib fit
+/// (`yarn-fit`'s settings, release, 2 cores) one Levenberg–Marquardt trial point took 378 s
+/// this way, in 32 failed solves of 4–8 s each, and failed solves took about a third of the
+/// fit's thread time.
+///
+/// Chosen on that fit's solves (the test evaluated after the fact on every run's histories):
+///
+/// | window | converging solves it would have stopped | iterations of the 213 failing solves |
+/// |---|---|---|
+/// | none | — | 42 500 |
+/// | 10 | 4 of them, after 22–37 iterations | 16 901 |
+/// | 20 | 1, at iteration 47 of 103 | 19 457 |
+/// | 40 | none | 23 679 |
+///
+/// The two such runs whose histories were printed were climbing out of their flat stretch with
+/// step lengths growing about 1.8× per iteration from 4e-15, behind a heavily shifted Hessian.
+pub const STALL_ITERATIONS: usize = 40;
+
 /// Settings of an equilibrium solve.
 #[derive(Clone, Debug)]
 pub struct EquilibriumSettings {
@@ -44,6 +70,7 @@ impl Default for EquilibriumSettings {
                 gradient_rel_tol: 1e-9,
                 max_iterations: 200,
                 project_spd: false,
+                stall_iterations: STALL_ITERATIONS,
                 ..NewtonSettings::default()
             },
             pair_margin: 1.5,

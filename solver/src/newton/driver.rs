@@ -164,7 +164,7 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
         }
         let residual_pre = run.system.residual_before_solve(run.asm.last_gradient());
         if let Some(r) = residual_pre
-            && let Some(stop) = run.check_residual(r, iterate.feasible)
+            && let Some(stop) = run.check_residual(r, &iterate)
         {
             return finish(run.report, stop, String::new());
         }
@@ -211,6 +211,7 @@ fn finish(
         | Termination::IterationLimit => Ok(*report),
         Termination::MaxIterations => Err(SolveError::NotConverged(report)),
         Termination::LineSearchFailed => Err(SolveError::LineSearchFailed(report)),
+        Termination::Stalled => Err(SolveError::Stalled(report)),
         Termination::NonFinite => Err(SolveError::NonFinite(report)),
         Termination::FactorizationFailed => Err(SolveError::FactorizationFailed { report, detail }),
     }
@@ -257,19 +258,37 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
     }
 
     /// Records the stationarity residual `r` of the iterate; the termination if it passes the
-    /// gradient test (feasible iterates only) or the iteration limit is reached.
-    fn check_residual(&mut self, r: f64, feasible: bool) -> Option<Termination> {
+    /// gradient test (feasible iterates only), the run has stalled
+    /// ([`NewtonSettings::stall_iterations`]) or the iteration limit is reached.
+    fn check_residual(&mut self, r: f64, iterate: &Iterate) -> Option<Termination> {
         let settings = self.settings;
         self.report.residual_history.push(r);
         let r0 = *self.residual0.get_or_insert(r);
-        if feasible
+        if iterate.feasible
             && r <= settings
                 .gradient_abs_tol
                 .max(settings.gradient_rel_tol * r0)
         {
             return Some(Termination::GradientTolerance);
         }
+        if self.stalled(iterate.noise) {
+            return Some(Termination::Stalled);
+        }
         (self.report.iterations >= settings.max_iterations).then_some(self.limit)
+    }
+
+    /// Whether the last [`NewtonSettings::stall_iterations`] iterations lowered neither the
+    /// residual by half nor the energy by more than `noise` (always `false` when the setting
+    /// is 0).
+    fn stalled(&self, noise: f64) -> bool {
+        let n = self.settings.stall_iterations;
+        let (residuals, energies) = (&self.report.residual_history, &self.report.energy_history);
+        if n == 0 || residuals.len() <= n || energies.len() <= n {
+            return false;
+        }
+        let back = |v: &[f64], k: usize| v[v.len() - 1 - k];
+        back(residuals, 0) > 0.5 * back(residuals, n)
+            && back(energies, n) - back(energies, 0) <= noise
     }
 
     /// Solves for the Newton step and line-searches along it, escalating the diagonal shift
@@ -325,7 +344,7 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
             };
             if !residual_checked {
                 residual_checked = true;
-                if let Some(stop) = self.check_residual(residual, iterate.feasible) {
+                if let Some(stop) = self.check_residual(residual, iterate) {
                     return Ok(Iteration::Stop(stop, String::new()));
                 }
             }

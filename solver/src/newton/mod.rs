@@ -56,6 +56,17 @@
 //! Newton step satisfies `‖Δx‖∞ ≤ step_tol`. Everything else (iteration limit, line-search
 //! failure, non-finite values, factorization failure) is an `Err` that carries the report.
 //!
+//! **Stall.** Where no step can make progress — the line search accepts only steps at the
+//! rounding level of the energy, for example `α = β^max_backtracks` against jammed contacts,
+//! or full steps at a residual that rounding keeps above the tolerance — the iterate no
+//! longer changes measurably and the run would spend every remaining iteration (each with its
+//! full line search) before failing. With [`NewtonSettings::stall_iterations`] `= n > 0` it
+//! fails at once with [`SolveError::Stalled`] when, over the last `n` iterations, the residual
+//! fell by less than half and the energy by no more than `ε_E`. A run that converges never
+//! meets this test between its iterates unless it stalls for `n` iterations first, so a
+//! caller that treats every failure alike (a retry, a smaller step) gets the same result,
+//! sooner.
+//!
 //! **Linear solver** ([`NewtonSettings::linear_solver`]). The default is the sparse
 //! Cholesky factorization above; [`LinearSolver::ConjugateGradient`] instead solves the same
 //! shifted system with Jacobi-preconditioned conjugate gradients ([`crate::pcg`]) to a
@@ -163,6 +174,11 @@ pub struct NewtonSettings {
     /// When `true`, reaching `max_iterations` without convergence ends the run with `Ok`
     /// and [`Termination::IterationLimit`] instead of an error. Default `false`.
     pub accept_iteration_limit: bool,
+    /// Stop a stalled run early (module documentation): with `n > 0`, the run fails with
+    /// [`SolveError::Stalled`] once the last `n` iterations lowered neither the residual by
+    /// half nor the energy by more than its rounding allowance `ε_E`. `0` (the default): runs
+    /// stop at convergence, a failure or `max_iterations` only.
+    pub stall_iterations: usize,
 }
 
 impl Default for NewtonSettings {
@@ -186,6 +202,7 @@ impl Default for NewtonSettings {
             carried_shift_probe_interval: 0,
             line_search: true,
             accept_iteration_limit: false,
+            stall_iterations: 0,
         }
     }
 }
@@ -245,6 +262,8 @@ pub enum Termination {
     /// Stopped after `max_iterations` steps without convergence, accepted because
     /// [`NewtonSettings::accept_iteration_limit`] is set (not converged, but not an error).
     IterationLimit,
+    /// Failed: [`NewtonSettings::stall_iterations`] iterations without progress.
+    Stalled,
 }
 
 impl Termination {
