@@ -46,7 +46,9 @@ mod stress;
 pub use contacts::ContactPair;
 pub use model::{PeriodicError, YarnModel};
 pub use sensitivity::{Partial, equilibrium_problem, stress_sensitivities};
-pub use solve::{Equilibrium, EquilibriumSettings, initial_dofs, solve_equilibrium};
+pub use solve::{
+    Equilibrium, EquilibriumSettings, STALL_ITERATIONS, initial_dofs, solve_equilibrium,
+};
 
 use crate::coarse::Coarse;
 use nalgebra::{Matrix3, Vector2, Vector3};
