@@ -24,6 +24,7 @@
 //! gradient_abs_tol = 1e-9       # J/m (N)
 //! gradient_rel_tol = 1e-9
 //! max_iterations = 200
+//! stall_iterations = 40         # fail after this many iterations without progress; 0: never
 //!
 //! [curve]                       # `curve`: uniaxial curves with zero orthogonal stress
 //! directions = ["weft", "bias", "warp"]
@@ -161,6 +162,9 @@ pub struct SolverConfig {
     pub gradient_rel_tol: Option<f64>,
     /// Iteration cap.
     pub max_iterations: Option<usize>,
+    /// Iterations without progress after which a solve fails (0: never;
+    /// [`crate::periodic::STALL_ITERATIONS`] by default).
+    pub stall_iterations: Option<usize>,
 }
 
 impl SolverConfig {
@@ -171,6 +175,7 @@ impl SolverConfig {
         s.newton.gradient_abs_tol = c.gradient_abs_tol.unwrap_or(s.newton.gradient_abs_tol);
         s.newton.gradient_rel_tol = c.gradient_rel_tol.unwrap_or(s.newton.gradient_rel_tol);
         s.newton.max_iterations = c.max_iterations.unwrap_or(s.newton.max_iterations);
+        s.newton.stall_iterations = c.stall_iterations.unwrap_or(s.newton.stall_iterations);
         s
     }
 }
@@ -694,5 +699,23 @@ mod tests {
                 .to_string()
                 .contains("diagonal")
         );
+    }
+
+    #[test]
+    fn the_stall_test_can_be_set_or_switched_off() {
+        let parse = |solver: &str| {
+            Config::parse(
+                &format!("tile = \"a.pyp\"\nout = \"o\"\n[solver]\n{solver}"),
+                Path::new("x.toml"),
+            )
+            .unwrap()
+            .solver
+            .equilibrium()
+            .newton
+            .stall_iterations
+        };
+        assert_eq!(parse(""), crate::periodic::STALL_ITERATIONS);
+        assert_eq!(parse("stall_iterations = 0\n"), 0);
+        assert_eq!(parse("stall_iterations = 12\n"), 12);
     }
 }
