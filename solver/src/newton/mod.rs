@@ -62,10 +62,11 @@
 //! longer changes measurably and the run would spend every remaining iteration (each with its
 //! full line search) before failing. With [`NewtonSettings::stall_iterations`] `= n > 0` it
 //! fails at once with [`SolveError::Stalled`] when, over the last `n` iterations, the residual
-//! fell by less than half and the energy by no more than `ε_E`. A run that converges never
-//! meets this test between its iterates unless it stalls for `n` iterations first, so a
-//! caller that treats every failure alike (a retry, a smaller step) gets the same result,
-//! sooner.
+//! fell by less than half and the energy by no more than `ε_E`. A run that would have climbed
+//! out of a flat stretch longer than `n` iterations (slowly growing steps behind a large
+//! shift look the same from inside the window) fails instead, so `n` should exceed the
+//! longest flat stretch of the runs that converge; `sim_periodic::periodic::STALL_ITERATIONS`
+//! records how it was measured for the periodic solves.
 //!
 //! **Linear solver** ([`NewtonSettings::linear_solver`]). The default is the sparse
 //! Cholesky factorization above; [`LinearSolver::ConjugateGradient`] instead solves the same
