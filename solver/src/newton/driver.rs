@@ -282,13 +282,11 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
     /// is 0).
     fn stalled(&self, noise: f64) -> bool {
         let n = self.settings.stall_iterations;
-        let (residuals, energies) = (&self.report.residual_history, &self.report.energy_history);
-        if n == 0 || residuals.len() <= n || energies.len() <= n {
-            return false;
-        }
-        let back = |v: &[f64], k: usize| v[v.len() - 1 - k];
-        back(residuals, 0) > 0.5 * back(residuals, n)
-            && back(energies, n) - back(energies, 0) <= noise
+        let energies = &self.report.energy_history;
+        n > 0
+            && energies.len() > n
+            && fell_by_less_than_half(&self.report.residual_history, n)
+            && energies[energies.len() - 1 - n] - energies[energies.len() - 1] <= noise
     }
 
     /// Solves for the Newton step and line-searches along it, escalating the diagonal shift
@@ -419,9 +417,7 @@ impl<P: Problem + ?Sized, S: NewtonSystem> NewtonRun<'_, P, S> {
     /// would an escape scaled by it).
     fn add_negative_curvature(&mut self, noise: f64) {
         // Stalled: the residual fell by less than half over the last few iterations.
-        let history = &self.report.residual_history;
-        let stalled = history.len() > STALL_WINDOW
-            && history[history.len() - 1] > 0.5 * history[history.len() - 1 - STALL_WINDOW];
+        let stalled = fell_by_less_than_half(&self.report.residual_history, STALL_WINDOW);
         let mut v = std::mem::take(&mut self.x_trial);
         if let Some(curvature) = self.system.negative_curvature(self.asm, &mut v)
             && curvature < 0.0
@@ -557,6 +553,12 @@ fn quadratic_form(asm: &Assembler, dx: &[f64]) -> f64 {
         }
     }
     crate::linalg::symmetric_quadratic_form(asm.hessian(), &v)
+}
+
+/// Whether the last entry of `history` is more than half the one `window` entries before it
+/// (`false` while the history is shorter than that).
+fn fell_by_less_than_half(history: &[f64], window: usize) -> bool {
+    history.len() > window && history[history.len() - 1] > 0.5 * history[history.len() - 1 - window]
 }
 
 /// `‖v‖∞`.
