@@ -27,8 +27,9 @@
 //! [`RootError::NotConverged`] with a [`RootReport`]; a bracket without a sign change,
 //! non-finite input, a NaN value of `f`, or an error of the user function are `Err`s too.
 //!
-//! Without a bracket, [`secant()`] starts from one point (secant steps, Illinois-safeguarded
-//! regula falsi once a sign change is found).
+//! Without a bracket, [`secant()`] starts from one point (secant steps, or Newton's where an
+//! evaluation brings its derivative; Illinois-safeguarded regula falsi once a sign change is
+//! found).
 
 mod secant;
 

@@ -11,6 +11,9 @@ pub struct SecantEval<T> {
     pub f_tol: f64,
     /// What the evaluation produced besides `f` (returned with the root).
     pub data: T,
+    /// `f′(x)`, where the caller has it (units of `f` per unit `x`): the next step is then
+    /// Newton's from this point instead of the secant's (see [`secant`]).
+    pub df: Option<f64>,
 }
 
 /// Settings of [`secant`].
@@ -115,6 +118,12 @@ pub enum SecantError<E> {
 ///    second point would pass the test more reliably than the first).
 /// 3. Otherwise the secant point `x₂ = x₁ − f₁ (x₁ − x₀)/(f₁ − f₀)` (`x₁ + first_step` when
 ///    `f₁ = f₀`) is clipped to `|x₂ − x₁| ≤ max_step`, then to `x₂ ≤ upper` and `x₂ ≥ lower`.
+///    **With derivatives.** When the newest evaluation brings a finite, nonzero `f′(x₁)`
+///    ([`SecantEval::df`]), Newton's point `x₁ − f₁/f′(x₁)` replaces the secant point, unless
+///    the root is bracketed and Newton's point falls outside the bracket (then the bracket's
+///    regula falsi point is kept). A start point with a derivative takes Newton's step as its
+///    second point instead of `first_step` (clipped alike). Near a simple root this converges
+///    quadratically instead of with the secant's order 1.6, and needs no second start point.
 /// 4. An evaluation that fails with [`StepError::Halve`] is retried at the midpoint
 ///    `(x₁ + x₂)/2`, at most `max_retries` times; [`StepError::Abort`] (and any failure at the
 ///    two start points) stops at once.
@@ -168,11 +177,19 @@ pub fn secant<T, E>(
         });
     }
     let (mut x0, mut f0) = (x0, start.f);
-    let mut x1 = x0 + if f0 > 0.0 { first_step } else { -first_step };
+    let mut x1 = match newton_point(x0, f0, start.df) {
+        Some(x) => x.clamp(x0 - max_step, x0 + max_step).min(upper).max(lower),
+        None => x0 + if f0 > 0.0 { first_step } else { -first_step },
+    };
+    if x1 == x0 {
+        // A Newton step clipped onto the start (the start on a bound): the plain second point.
+        x1 = x0 + if f0 > 0.0 { first_step } else { -first_step };
+    }
     let SecantEval {
         f: mut f1,
         f_tol: mut tol1,
         data: mut data1,
+        df: mut df1,
     } = eval(x1)?;
     let mut bracketed = f0.signum() != f1.signum();
     let mut retained = false; // Illinois bookkeeping: the end x0 was retained last step
@@ -199,10 +216,16 @@ pub fn secant<T, E>(
             )));
         }
         let denom = f1 - f0;
-        let mut x2 = if denom != 0.0 {
+        let secant_point = if denom != 0.0 {
             x1 - f1 * (x1 - x0) / denom
         } else {
             x1 + first_step
+        };
+        // Newton's point where the derivative is known, if it stays inside a bracket.
+        let inside = |x: f64| !bracketed || (x - x0) * (x - x1) < 0.0;
+        let mut x2 = match newton_point(x1, f1, df1) {
+            Some(x) if inside(x) => x,
+            _ => secant_point,
         };
         // `min`/`max` (not `clamp`) so that a NaN secant point lands on `upper`.
         x2 = x2.clamp(x1 - max_step, x1 + max_step).min(upper).max(lower);
@@ -223,6 +246,7 @@ pub fn secant<T, E>(
             f: f2,
             f_tol: tol2,
             data: data2,
+            df: df2,
         } = trial.map_err(|e| SecantError::Eval {
             x: x2,
             source: e.into_inner(),
@@ -242,7 +266,7 @@ pub fn secant<T, E>(
             bracketed = f2.signum() != f1.signum();
             (x0, f0) = (x1, f1);
         }
-        (x1, f1, tol1, data1) = (x2, f2, tol2, data2);
+        (x1, f1, tol1, data1, df1) = (x2, f2, tol2, data2, df2);
     }
     Err(SecantError::NotConverged(report(
         max_iterations,
@@ -252,6 +276,12 @@ pub fn secant<T, E>(
         f0,
         bracketed,
     )))
+}
+
+/// Newton's point `x − f/f′` from a finite, nonzero derivative (`None` otherwise).
+fn newton_point(x: f64, f: f64, df: Option<f64>) -> Option<f64> {
+    let df = df.filter(|d| d.is_finite() && *d != 0.0)?;
+    Some(x - f / df).filter(|p| p.is_finite())
 }
 
 #[cfg(test)]
@@ -276,6 +306,7 @@ mod tests {
             f,
             f_tol: tol,
             data: (),
+            df: None,
         })
     }
 
@@ -322,6 +353,7 @@ mod tests {
                 f: 0.5 - x,
                 f_tol: 1.0,
                 data: calls,
+                df: None,
             })
         })
         .unwrap();
@@ -333,10 +365,59 @@ mod tests {
                 f: 0.5 - x,
                 f_tol: if x == 0.3 { 0.1 } else { 0.5 },
                 data: x,
+                df: None,
             })
         })
         .unwrap();
         assert_eq!((r.x, r.data, r.iterations), (0.31, 0.31, 0));
+    }
+
+    #[test]
+    fn derivatives_give_newton_steps_that_converge_in_fewer_evaluations() {
+        // 0.3 − x³ − x from 0: the secant's evaluations against Newton's, same tolerance.
+        let f = |x: f64| 0.3 - x * x * x - x;
+        let df = |x: f64| -3.0 * x * x - 1.0;
+        let count = |with_derivative: bool| {
+            let mut calls = 0;
+            let r = secant(0.0, &settings(), |x| {
+                calls += 1;
+                Ok::<_, StepError<Infallible>>(SecantEval {
+                    f: f(x),
+                    f_tol: 1e-14,
+                    data: (),
+                    df: with_derivative.then(|| df(x)),
+                })
+            })
+            .unwrap();
+            assert!(f(r.x).abs() <= 1e-14, "{r:?}");
+            calls
+        };
+        let (plain, newton) = (count(false), count(true));
+        // Newton from 0 (root 0.278418): 0.2 (its first step 0.3 clipped to max_step), then
+        // quadratically: |f| 1e-2, 1e-4, 1e-8, 1e-15 — six evaluations in all.
+        assert!(newton <= 6, "{newton} evaluations with derivatives");
+        assert!(newton < plain, "{newton} with derivatives, {plain} without");
+        // Newton points outside the bracket are not taken: with a derivative 10× too small,
+        // every Newton step from tanh(x − 0.7)'s far side overshoots, and once 0.65 and 0.85
+        // bracket the root the iteration goes on by regula falsi.
+        let g = |x: f64| (x - 0.7).tanh();
+        let mut points = vec![];
+        let r = secant(0.45, &settings(), |x| {
+            points.push(x);
+            Ok::<_, StepError<Infallible>>(SecantEval {
+                f: g(x),
+                f_tol: 1e-13,
+                data: (),
+                df: Some(0.1 / (x - 0.7).cosh().powi(2)),
+            })
+        })
+        .unwrap();
+        assert!((r.x - 0.7).abs() <= 1e-12, "{r:?} {points:?}");
+        assert!(
+            points[3..].iter().all(|&x| (0.65..=0.85).contains(&x)),
+            "{points:?}"
+        );
+        assert!((r.x - 0.7).abs() <= 1e-12, "{r:?}");
     }
 
     #[test]
