@@ -18,12 +18,12 @@
 //! ```
 //!
 //! the total derivative with the fluctuations relaxing, by implicit differentiation of the
-//! equilibrium ([`crate::periodic::stress_sensitivities`]). A safeguarded root-find
-//! ([`solver::secant`]) takes Newton's steps with it (secant steps where a solve has no slope,
-//! e.g. at a saddle; Illinois-type regula falsi once the root is bracketed and a Newton point
-//! leaves the bracket) and converges in a few warm-started solves
-//! ([`CurveSettings::exact_slope`]). Points are solved in order of `s`, each warm-started from
-//! the previous one.
+//! equilibrium ([`crate::periodic::stress_sensitivities`]). A safeguarded secant root-find
+//! ([`solver::secant`]: Illinois-type regula falsi once the root is bracketed) converges in a
+//! handful of warm-started solves. With [`CurveSettings::exact_slope`] it takes Newton's steps
+//! with this slope instead (secant steps where a solve has no slope, e.g. at a saddle; regula
+//! falsi where a Newton point leaves the bracket), in fewer solves; that is off by default (see
+//! there why). Points are solved in order of `s`, each warm-started from the previous one.
 
 use crate::coarse::Coarse;
 use crate::periodic::{
@@ -54,14 +54,36 @@ pub struct CurveSettings {
     /// (10⁻³).
     pub compression_tol: f64,
     /// Newton steps on `c` with the exact slope `dσ_c/dc` of every solve (module
-    /// documentation), instead of secant steps. Default `true`.
+    /// documentation), instead of secant steps. Default `false`.
     ///
     /// A slope costs one linear solve with the equilibrium's Hessian (plus its assembly), far
     /// less than a solve, and is computed only where the point is not yet a root. On the
     /// `yarn-fit` objective of the acrylic seed at its fitted point (20 stress samples and
     /// 3 × 3 compression nodes; release, one thread, three interleaved runs of 5 evaluations
-    /// each): Newton iterations per evaluation 684 → 617, time 1.98 → 1.78 s, the objective
-    /// equal to 6 digits (0.0385085 both).
+    /// each) it took Newton iterations per evaluation from 684 to 617 and the time from 1.98
+    /// to 1.78 s, with the objective equal to 6 digits (0.0385085 both).
+    ///
+    /// It is off by default because a full `yarn-fit` run with it (commit ccd574d, against
+    /// the committed run at e30cc82, same machine) was not faster end to end, and its fits
+    /// went elsewhere. The roots move by less than 1e-6, but the swarm and the local starts
+    /// followed other paths:
+    ///
+    /// | fabric | g (secant → Newton) | comfort-range error | failed evaluations | fit time |
+    /// |---|---|---|---|---|
+    /// | acrylic garter | 0.089 → 0.209 | 5.8 → 17.2 % | 3 → 10 | 187 → 218 s |
+    /// | acrylic rib | 0.153 → 0.120 | 11.6 → 14.3 % | 14 → 28 | 260 → 246 s |
+    /// | acrylic seed | 0.039 → 0.090 | 5.9 → 10.5 % | 5 → 11 | 591 → 615 s |
+    /// | acrylic stockinette (development) | 0.073 → 0.071 | 10.6 → 7.8 % | 7 → 5 | 75 → 56 s |
+    /// | babyredo garter | 0.627 → 0.212 | 13.6 → 20.5 % | 17 → 14 | 194 → 172 s |
+    /// | babyredo rib | 0.068 → 0.076 | 5.7 → 9.0 % | 19 → 13 | 486 → 373 s |
+    /// | babyredo seed | 0.237 → 0.492 | 7.5 → 12.4 % | 25 → 37 | 340 → 478 s |
+    /// | babyredo stockinette | 0.0755 → 0.0755 | 14.7 → 14.7 % | 4 → 4 | 77 → 60 s |
+    ///
+    /// The slowest fit took 615 s instead of 591 s. Failed evaluations (no equilibrium: +∞
+    /// to the swarm) rose from 94 to 122 in all: a Newton step may jump up to 0.2 in `c`,
+    /// into jammed states that the secant's first probe of 0.01 does not reach. The spread of
+    /// the held-out results (mean comfort-range error 9.3 → 14.1 %) is a measure of how much
+    /// one fit depends on its path, not only of this setting.
     pub exact_slope: bool,
 }
 
@@ -73,7 +95,7 @@ impl Default for CurveSettings {
             stress_rel_tol: 1e-6,
             max_solves: 30,
             compression_tol: 1e-7,
-            exact_slope: true,
+            exact_slope: false,
         }
     }
 }
