@@ -80,10 +80,12 @@ pub struct CurveSettings {
     /// | babyredo stockinette | 0.0755 → 0.0755 | 14.7 → 14.7 % | 4 → 4 | 77 → 60 s |
     ///
     /// The slowest fit took 615 s instead of 591 s. Failed evaluations (no equilibrium: +∞
-    /// to the swarm) rose from 94 to 122 in all: a Newton step may jump up to 0.2 in `c`,
-    /// into jammed states that the secant's first probe of 0.01 does not reach. The spread of
-    /// the held-out results (mean comfort-range error 9.3 → 14.1 %) is a measure of how much
-    /// one fit depends on its path, not only of this setting.
+    /// to the swarm) rose from 94 to 122 in all; a likely cause, not checked, is that a Newton
+    /// step may jump up to 0.2 in `c`, into jammed states that the secant's first probe of
+    /// 0.01 does not reach. The held-out fabrics' mean comfort-range error went from 9.3 to
+    /// 14.1 %. That spread says as much about how strongly one fit depends on its path as
+    /// about this setting: on the development fabric, changing only the swarm's seed already
+    /// moved g between 0.073 and 0.157 (`bench::figures::yarn_fit`'s seed study).
     pub exact_slope: bool,
 }
 
