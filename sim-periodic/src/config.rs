@@ -30,6 +30,7 @@
 //! directions = ["weft", "bias", "warp"]
 //! max_stretch = 0.5
 //! points = 11
+//! exact_slope = false           # true: Newton steps on c with the exact dσ_c/dc
 //!
 //! [database]                    # `database`: ΔQ over a strain grid
 //! sx = { min = -0.2, max = 1.0, n = 9 }   # or an explicit list: sx = [-0.2, 0.0, 0.5]
@@ -193,6 +194,10 @@ pub struct CurveConfig {
     /// Points from 0 to `max_stretch` (≥ 2).
     #[serde(default = "default_points")]
     pub points: usize,
+    /// Newton steps with the exact slope in the compression root-finds
+    /// ([`crate::curves::CurveSettings::exact_slope`]; default `false`).
+    #[serde(default)]
+    pub exact_slope: bool,
 }
 
 impl Default for CurveConfig {
@@ -201,6 +206,7 @@ impl Default for CurveConfig {
             directions: all_directions(),
             max_stretch: default_max_stretch(),
             points: default_points(),
+            exact_slope: false,
         }
     }
 }
@@ -717,5 +723,26 @@ mod tests {
         assert_eq!(parse(""), crate::periodic::STALL_ITERATIONS);
         assert_eq!(parse("stall_iterations = 0\n"), 0);
         assert_eq!(parse("stall_iterations = 12\n"), 12);
+    }
+
+    #[test]
+    fn newton_steps_on_the_compression_are_opt_in() {
+        let parse = |curve: &str| {
+            Config::parse(
+                &format!("tile = \"a.pyp\"\nout = \"o\"\n[curve]\n{curve}"),
+                Path::new("x.toml"),
+            )
+            .unwrap()
+            .curve
+            .exact_slope
+        };
+        assert!(!parse(""));
+        assert!(parse("exact_slope = true\n"));
+        let err = Config::parse(
+            "tile = \"a.pyp\"\nout = \"o\"\n[curve]\nexact_slope = 1\n",
+            Path::new("x.toml"),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("x.toml"), "{err}");
     }
 }

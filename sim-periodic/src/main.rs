@@ -162,6 +162,7 @@ fn curve(path: &Path) -> Result<()> {
     let (directions, stretches) = s.config.curve(path)?;
     let settings = CurveSettings {
         equilibrium: s.config.equilibrium(),
+        exact_slope: s.config.curve.exact_slope,
         ..CurveSettings::default()
     };
     let t = Instant::now();
