@@ -707,18 +707,23 @@ mod tests {
         );
     }
 
+    /// A minimal config with `body` under `[section]`.
+    fn with_section(section: &str, body: &str) -> Result<Config, ConfigError> {
+        Config::parse(
+            &format!("tile = \"a.pyp\"\nout = \"o\"\n[{section}]\n{body}"),
+            Path::new("x.toml"),
+        )
+    }
+
     #[test]
     fn the_stall_test_can_be_set_or_switched_off() {
-        let parse = |solver: &str| {
-            Config::parse(
-                &format!("tile = \"a.pyp\"\nout = \"o\"\n[solver]\n{solver}"),
-                Path::new("x.toml"),
-            )
-            .unwrap()
-            .solver
-            .equilibrium()
-            .newton
-            .stall_iterations
+        let parse = |body: &str| {
+            with_section("solver", body)
+                .unwrap()
+                .solver
+                .equilibrium()
+                .newton
+                .stall_iterations
         };
         assert_eq!(parse(""), crate::periodic::STALL_ITERATIONS);
         assert_eq!(parse("stall_iterations = 0\n"), 0);
@@ -727,22 +732,10 @@ mod tests {
 
     #[test]
     fn newton_steps_on_the_compression_are_opt_in() {
-        let parse = |curve: &str| {
-            Config::parse(
-                &format!("tile = \"a.pyp\"\nout = \"o\"\n[curve]\n{curve}"),
-                Path::new("x.toml"),
-            )
-            .unwrap()
-            .curve
-            .exact_slope
-        };
+        let parse = |body: &str| with_section("curve", body).unwrap().curve.exact_slope;
         assert!(!parse(""));
         assert!(parse("exact_slope = true\n"));
-        let err = Config::parse(
-            "tile = \"a.pyp\"\nout = \"o\"\n[curve]\nexact_slope = 1\n",
-            Path::new("x.toml"),
-        )
-        .unwrap_err();
+        let err = with_section("curve", "exact_slope = 1\n").unwrap_err();
         assert!(err.to_string().contains("x.toml"), "{err}");
     }
 }
