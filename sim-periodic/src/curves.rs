@@ -56,8 +56,9 @@ pub struct CurveSettings {
     /// Newton steps on `c` with the exact slope `dσ_c/dc` of every solve (module
     /// documentation), instead of secant steps. Default `false`.
     ///
-    /// A slope costs one linear solve with the equilibrium's Hessian (plus its assembly), far
-    /// less than a solve, and is computed only where the point is not yet a root. On the
+    /// A slope costs one assembly, factorization and solve with the equilibrium's Hessian
+    /// (and the structures they are built on), and is computed only where the point is not
+    /// yet a root. On the
     /// `yarn-fit` objective of the acrylic seed at its fitted point (20 stress samples and
     /// 3 × 3 compression nodes; release, one thread, three interleaved runs of 5 evaluations
     /// each) it took Newton iterations per evaluation from 684 to 617 and the time from 1.98
@@ -65,8 +66,9 @@ pub struct CurveSettings {
     ///
     /// It is off by default because a full `yarn-fit` run with it (commit ccd574d, against
     /// the committed run at e30cc82, same machine) was not faster end to end, and its fits
-    /// went elsewhere. The roots move by less than 1e-6, but the swarm and the local starts
-    /// followed other paths:
+    /// went elsewhere. The roots agree with the secant's to within 1e-6 (the stockinette weft
+    /// curve of `tests/database.rs`), but which solves fail changes too, and the swarm and the
+    /// local starts followed other paths:
     ///
     /// | fabric | g (secant → Newton) | comfort-range error | failed evaluations | fit time |
     /// |---|---|---|---|---|
