@@ -3,15 +3,20 @@
 //! `cargo bench -p sim-periodic`. Each tile is first relaxed (not timed); one iteration solves
 //! it at a 20 % weft stretch from its relaxed state. The broad-phase bench finds the contact
 //! pairs of the relaxed procedural seed at that stretch (16 and 24 vertices per loop). The
-//! database bench generates a 3³ grid around zero strain for the real stockinette tile.
+//! database bench generates a 3³ grid around zero strain for the real stockinette tile. The
+//! curve bench computes the real stockinette's weft curve at s = 0, 0.1, …, 0.4 with secant
+//! steps and with Newton steps on the exact slope (`CurveSettings::exact_slope`), and prints
+//! the solves each took.
 
 #![allow(missing_docs)] // criterion_group! generates undocumented items
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use sim_periodic::coarse::{Coarse, Strain};
+use sim_periodic::curves::{CurveSettings, uniaxial_curve};
 use sim_periodic::database::{DatabaseSettings, generate, relax_reference, uniform_axis};
 use sim_periodic::patterns::{Pattern, RelaxSettings, relax};
 use sim_periodic::periodic::{EquilibriumSettings, PeriodicTile, YarnModel, solve_equilibrium};
+use yarn_pattern::direction::Direction;
 use yarn_pattern::tile::Tile;
 
 fn stockinette() -> Tile {
@@ -100,6 +105,24 @@ fn bench(c: &mut Criterion) {
             .expect("generates")
         })
     });
+    group.finish();
+
+    // Uniaxial weft curve of the same relaxed tile: secant against exact-slope Newton steps.
+    let stretches = uniform_axis(0.0, 0.4, 5);
+    let mut group = c.benchmark_group("weft curve, s = 0 … 0.4 (5 points)");
+    group.sample_size(10);
+    for exact_slope in [false, true] {
+        let curve = CurveSettings {
+            exact_slope,
+            ..CurveSettings::default()
+        };
+        let run =
+            || uniaxial_curve(&tile, &model, Direction::Weft, &stretches, &curve).expect("curve");
+        let solves: usize = run().iter().map(|p| p.solves).sum();
+        let name = if exact_slope { "exact slope" } else { "secant" };
+        println!("weft curve, {name}: {solves} solves");
+        group.bench_function(format!("stockinette-real, {name}"), |b| b.iter(run));
+    }
     group.finish();
 }
 

