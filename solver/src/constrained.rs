@@ -43,26 +43,6 @@
 //! rows of a periodic tile couple all vertices), so the method suits few or short
 //! constraint rows; its cost grows with `m` through the `m` solves for `Y`.
 //!
-//! **Long rows.** A row with more than [`LONG_ROW`] entries is not augmented inside `K`: `K`
-//! gets a *pin* of one of the row's columns instead (sparse), and the difference, rank 2 per
-//! long row, is applied by the Sherman–Morrison–Woodbury formula; the inertia test carries
-//! over exactly (Haynsworth), see `LowRank`. The solve is the same `K⁻¹` in exact arithmetic;
-//! its KKT residual after the refinement step was 1e-11 relative on the real stockinette tile
-//! (1e-14 with the dense block); equilibria of the nine tiles below agree to 12 digits in
-//! energy, with the same Newton iterations on eight (the seed: 7 instead of 8). It pays
-//! only where the dense blocks dominate the factorization, on large tiles: the benchmark
-//! tiles of `cargo bench -p sim-periodic --bench equilibrium -- "equilibrium, sx"` solved
-//! alternately both ways in one process (a throw-away harness; medians of 8 solves each;
-//! same-path pairs vary by ±12 % on this machine), every row of more than 32 entries long
-//! against none, took 0.64× the time on the satin (200 vertices) and 0.76× on the basket
-//! weave (128), but 1.39× on the garter and 1.22× on the rib 1×1 (48 each), where faer's
-//! supernodal factorization of the nearly dense `K` is cheaper than the `2k` extra solves, and
-//! 0.84–1.02× in between (real stockinette 100, rib 2×2 and seed 96, plain 32). On the yarn
-//! fit's 64-vertex seed tile one objective evaluation took 2.0–2.7 s against 1.7–2.0 s. Hence
-//! the threshold of 100: with it, the satin took 0.59× and the basket 0.72×, and the other
-//! seven tiles, which keep the dense block, 0.95–1.12×. Only the rows of tiles above 100
-//! vertices (and loops above 100 edges) are long.
-//!
 //! **Convergence** uses the Lagrangian gradient `‖g + Cᵀλ‖∞ = ‖g + Ĉᵀλ̂‖∞` (zero exactly at a
 //! KKT point) in place of `‖g_f‖∞`, with the least-squares multipliers `λ̂ = −(ĈĈᵀ)⁻¹Ĉg` (the
 //! gradient projected onto the null space of `C`; `ĈĈᵀ` is factorized once, for up to 1024
@@ -256,10 +236,8 @@ struct KktSystem {
     h_slots: Vec<usize>,
     /// `K` value index of each diagonal entry.
     diag_slots: Vec<usize>,
-    /// `(K value index, (ĈᵀĈ) value)` of the augmentation, summed over the short rows of `Ĉ`.
+    /// `(K value index, (ĈᵀĈ) value)` of the augmentation, summed over the rows of `Ĉ`.
     gram: Vec<(usize, f64)>,
-    /// The long rows' augmentation as a low-rank update of the factorized matrix.
-    low_rank: LowRank,
     llt: SparseLlt,
     /// `Y = K⁻¹Ĉᵀ`, column-major `n × m`.
     y: Vec<f64>,
@@ -287,17 +265,8 @@ const MAX_DENSE_MULTIPLIERS: usize = 1024;
 /// The augmentation weight `ρ` relative to `max_i |H_ii|` (see the module documentation).
 const AUGMENTATION: f64 = 100.0;
 
-/// Rows of `C` with more entries than this are long: their augmentation is a low-rank update
-/// (`LowRank`) instead of a dense block of `K` (module documentation, where the value is
-/// measured).
-pub const LONG_ROW: usize = 100;
-
 impl KktSystem {
-    fn new(
-        asm: &Assembler,
-        constraints: &LinearConstraints,
-        long_row: usize,
-    ) -> Result<Self, SolveError> {
+    fn new(asm: &Assembler, constraints: &LinearConstraints) -> Result<Self, SolveError> {
         let n = asm.n_dofs();
         let m = constraints.n_constraints();
         let mut row_scale = vec![0.0; m];
@@ -313,8 +282,7 @@ impl KktSystem {
             *s = 1.0 / *s;
         }
 
-        let low_rank = LowRank::new(constraints, &row_scale, long_row);
-        // Lower-triangle pattern of K: H's, then every pair of columns sharing a short row of C.
+        // Lower-triangle pattern of K: H's, then every pair of columns sharing a row of C.
         let h = asm.hessian();
         let h_sym = h.symbolic();
         let mut coords = Vec::new();
@@ -327,7 +295,7 @@ impl KktSystem {
         let diag_first = coords.len();
         coords.extend((0..n).map(|i| (i, i)));
         let mut gram_values = Vec::new();
-        for r in (0..m).filter(|r| !low_rank.rows.contains(r)) {
+        for r in 0..m {
             let row = &constraints.triplets[constraints.row_ptr[r]..constraints.row_ptr[r + 1]];
             let scale2 = row_scale[r] * row_scale[r];
             for &(_, a, va) in row {
@@ -358,7 +326,6 @@ impl KktSystem {
             h_slots,
             diag_slots,
             gram,
-            low_rank,
             llt,
             y: vec![0.0; n * m],
             schur: None,
@@ -426,14 +393,9 @@ impl KktSystem {
         for &(slot, g) in &self.gram {
             values[slot] += self.rho * g;
         }
-        for &p in &self.low_rank.pins {
-            values[self.diag_slots[p]] += self.rho;
-        }
         self.mu = mu;
         self.schur = None;
         self.llt.factorize(self.k.as_ref())?;
-        self.low_rank
-            .factorize(&mut self.llt, &self.constraints, &self.row_scale, self.rho)?;
         // Y = K⁻¹Ĉᵀ, then the Schur complement ĈY.
         self.y.fill(0.0);
         for &(r, c, v) in &self.constraints.triplets {
@@ -441,8 +403,6 @@ impl KktSystem {
         }
         for column in self.y.chunks_mut(n.max(1)).take(m) {
             self.llt.solve_in_place(column)?;
-            self.low_rank
-                .correct(&self.constraints, &self.row_scale, column)?;
         }
         if m == 0 {
             return Ok(());
@@ -472,8 +432,6 @@ impl KktSystem {
             w[c] += self.rho * self.row_scale[r] * v * self.rhs[n + r];
         }
         self.llt.solve_in_place(w)?;
-        self.low_rank
-            .correct(&self.constraints, &self.row_scale, w)?;
         if let Some(schur) = &self.schur {
             let mut t = nalgebra::DVector::from_column_slice(&self.rhs[n..]);
             t.neg_mut();
@@ -658,184 +616,6 @@ impl NewtonSystem for KktSystem {
     }
 }
 
-/// The blocks of the capacitance `Γ` that [`LowRank::capacitance_solve`] uses: the Cholesky
-/// factor of `A`, `B`, and the Cholesky factor of `N` ([`LowRank::factorize`]).
-type Capacitance = (
-    nalgebra::Cholesky<f64, nalgebra::Dyn>,
-    nalgebra::DMatrix<f64>,
-    nalgebra::Cholesky<f64, nalgebra::Dyn>,
-);
-
-/// The augmentation of the long rows of `Ĉ` as a low-rank update (module documentation).
-///
-/// The factorized matrix is `K_p = A + μI + ρĈ_sᵀĈ_s + ρ Σ_ℓ e_{p(ℓ)} e_{p(ℓ)}ᵀ`: the short
-/// rows `Ĉ_s` augmented as before, each long row `ĉ_ℓ` replaced by a *pin* of one of its
-/// columns `p(ℓ)`, which keeps `K_p` sparse and, like the row, removes the null modes the row
-/// removes (a translation of a periodic tile, constrained by its mean row, moves the pinned
-/// column too). The augmented matrix of the module documentation is then
-///
-/// ```text
-/// K = K_p + V D Vᵀ,    V = [ĉ_1ᵀ … ĉ_kᵀ  e_p(1) … e_p(k)],    D = diag(ρ I_k, −ρ I_k),
-/// ```
-///
-/// solved by the Sherman–Morrison–Woodbury formula with the `2k × 2k` capacitance
-/// `Γ = D⁻¹ + VᵀK_p⁻¹V`:  `K⁻¹b = z − W Γ⁻¹ Vᵀz`,  `z = K_p⁻¹b`,  `W = K_p⁻¹V`.
-/// Positive definiteness of `K` (the inertia test of the Newton driver) follows from
-/// Haynsworth's inertia additivity for `[K_p V; Vᵀ −D⁻¹]`: with `K_p` positive definite,
-/// `K` is positive definite exactly when `Γ` has `k` negative and `k` positive eigenvalues
-/// (`−D⁻¹` has `k` of each).
-struct LowRank {
-    /// The long rows `ℓ`.
-    rows: Vec<usize>,
-    /// Their pinned columns `p(ℓ)`.
-    pins: Vec<usize>,
-    /// `W = K_p⁻¹V`, column-major `n × 2k`.
-    w: Vec<f64>,
-    /// `Γ`'s blocks (`None` until a factorization succeeds).
-    capacitance: Option<Capacitance>,
-}
-
-impl LowRank {
-    /// The rows of `constraints` with more than `long_row` entries, each pinned at its first
-    /// column of largest absolute coefficient not pinned by an earlier long row (a row whose
-    /// columns are all pinned stays short).
-    fn new(constraints: &LinearConstraints, row_scale: &[f64], long_row: usize) -> Self {
-        let mut rows = Vec::new();
-        let mut pins: Vec<usize> = Vec::new();
-        for r in 0..constraints.n_constraints() {
-            let row = &constraints.triplets[constraints.row_ptr[r]..constraints.row_ptr[r + 1]];
-            if row.len() <= long_row {
-                continue;
-            }
-            let mut best: Option<(usize, f64)> = None;
-            for &(_, c, v) in row {
-                let a = (row_scale[r] * v).abs();
-                if !pins.contains(&c) && best.is_none_or(|(_, b)| a > b) {
-                    best = Some((c, a));
-                }
-            }
-            if let Some((c, _)) = best {
-                rows.push(r);
-                pins.push(c);
-            }
-        }
-        Self {
-            rows,
-            pins,
-            w: Vec::new(),
-            capacitance: None,
-        }
-    }
-
-    fn rank(&self) -> usize {
-        self.rows.len()
-    }
-
-    /// `Vᵀz` (length `2k`).
-    fn v_transpose(&self, c: &LinearConstraints, row_scale: &[f64], z: &[f64]) -> Vec<f64> {
-        let k = self.rank();
-        let mut out = vec![0.0; 2 * k];
-        for (i, &r) in self.rows.iter().enumerate() {
-            out[i] = row_scale[r]
-                * c.triplets[c.row_ptr[r]..c.row_ptr[r + 1]]
-                    .iter()
-                    .map(|&(_, col, v)| v * z[col])
-                    .sum::<f64>();
-            out[k + i] = z[self.pins[i]];
-        }
-        out
-    }
-
-    /// With `llt` holding `K_p`: computes `W` and the factors of `Γ`'s blocks; fails when `K`
-    /// is not numerically positive definite (the inertia of `Γ`, see the type's documentation).
-    fn factorize(
-        &mut self,
-        llt: &mut SparseLlt,
-        c: &LinearConstraints,
-        row_scale: &[f64],
-        rho: f64,
-    ) -> Result<(), String> {
-        self.capacitance = None;
-        let k = self.rank();
-        if k == 0 {
-            return Ok(());
-        }
-        let n = c.n_dofs();
-        self.w = vec![0.0; 2 * k * n];
-        for (i, &r) in self.rows.iter().enumerate() {
-            for &(_, col, v) in &c.triplets[c.row_ptr[r]..c.row_ptr[r + 1]] {
-                self.w[i * n + col] += row_scale[r] * v;
-            }
-            self.w[(k + i) * n + self.pins[i]] = 1.0;
-        }
-        let mut gamma = nalgebra::DMatrix::zeros(2 * k, 2 * k);
-        for column in self.w.chunks_mut(n) {
-            llt.solve_in_place(column)?;
-        }
-        for j in 0..2 * k {
-            let vt = self.v_transpose(c, row_scale, &self.w[j * n..(j + 1) * n]);
-            for (i, v) in vt.into_iter().enumerate() {
-                gamma[(i, j)] = v;
-            }
-        }
-        let mut gamma = (&gamma + gamma.transpose()) * 0.5;
-        for i in 0..k {
-            gamma[(i, i)] += 1.0 / rho;
-            gamma[(k + i, k + i)] -= 1.0 / rho;
-        }
-        // Γ = [A B; Bᵀ Δ] by blocks (rows, pins): A = Ĉ_l K_p⁻¹ Ĉ_lᵀ + I/ρ is positive
-        // definite; the pins' block Δ is a difference of nearly equal terms, and Γ is too badly
-        // scaled for a factorization of the whole (eigenvalues from 10⁴ down to −10⁻¹⁶ on a
-        // 100-vertex tile), so it is eliminated through its Schur complement
-        // N = BᵀA⁻¹B − Δ. In(Γ) = In(A) + In(−N), so K is positive definite exactly when N is.
-        let a = gamma.view((0, 0), (k, k)).into_owned();
-        let b = gamma.view((0, k), (k, k)).into_owned();
-        let delta = gamma.view((k, k), (k, k)).into_owned();
-        let a = nalgebra::Cholesky::new(a)
-            .ok_or("Cholesky: the long rows' block of the capacitance is not positive definite")?;
-        let n_schur = b.transpose() * a.solve(&b) - delta;
-        let n_schur = nalgebra::Cholesky::new((&n_schur + n_schur.transpose()) * 0.5).ok_or(
-            "Cholesky: the augmented matrix is not positive definite (inertia of the low-rank \
-             update's capacitance)",
-        )?;
-        self.capacitance = Some((a, b, n_schur));
-        Ok(())
-    }
-
-    /// `Γ⁻¹t` by block elimination (see [`LowRank::factorize`]).
-    fn capacitance_solve(&self, t: &[f64]) -> Result<Vec<f64>, String> {
-        let k = self.rank();
-        let Some((a, b, n_schur)) = &self.capacitance else {
-            return Err("low-rank solve requested without a valid factorization".into());
-        };
-        let t1 = nalgebra::DVector::from_column_slice(&t[..k]);
-        let t2 = nalgebra::DVector::from_column_slice(&t[k..]);
-        let y2 = -n_schur.solve(&(t2 - b.transpose() * a.solve(&t1)));
-        let y1 = a.solve(&(t1 - b * &y2));
-        Ok(y1.iter().chain(y2.iter()).copied().collect())
-    }
-
-    /// `z ← z − W Γ⁻¹ Vᵀz`: turns `K_p⁻¹b` into `K⁻¹b`.
-    fn correct(
-        &self,
-        c: &LinearConstraints,
-        row_scale: &[f64],
-        z: &mut [f64],
-    ) -> Result<(), String> {
-        if self.rank() == 0 {
-            return Ok(());
-        }
-        let n = z.len();
-        let s = self.capacitance_solve(&self.v_transpose(c, row_scale, z))?;
-        for (j, &sj) in s.iter().enumerate() {
-            for (zi, wi) in z.iter_mut().zip(&self.w[j * n..(j + 1) * n]) {
-                *zi -= wi * sj;
-            }
-        }
-        Ok(())
-    }
-}
-
 /// Inverse iterations of [`NewtonSystem::negative_curvature`] (a search of 128 when the run
 /// stalled made the basket weave's 5³ database 3× slower and left a sample unsolved).
 const CURVATURE_SEARCH: usize = 16;
@@ -869,21 +649,9 @@ impl ConstrainedNewtonSolver {
         problem: &P,
         constraints: &LinearConstraints,
     ) -> Result<Self, SolveError> {
-        Self::with_long_rows(problem, constraints, LONG_ROW)
-    }
-
-    /// [`ConstrainedNewtonSolver::new`] with rows of more than `long_row` entries augmented by
-    /// a low-rank update instead of in the factorized matrix ([`LONG_ROW`] by default; for
-    /// tests and benchmarks that compare the two).
-    #[doc(hidden)]
-    pub fn with_long_rows<P: Problem + ?Sized>(
-        problem: &P,
-        constraints: &LinearConstraints,
-        long_row: usize,
-    ) -> Result<Self, SolveError> {
         check_len("constraint columns", problem.n_dofs(), constraints.n_dofs())?;
         let assembler = Assembler::new(problem)?;
-        let system = KktSystem::new(&assembler, constraints, long_row)?;
+        let system = KktSystem::new(&assembler, constraints)?;
         Ok(Self { assembler, system })
     }
 

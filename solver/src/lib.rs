@@ -9,7 +9,7 @@
 //! | [`newton`] | [`minimize`] / [`NewtonSolver`]: Newton with backtracking line search, Dirichlet DOFs, adaptive diagonal regularization, sparse Cholesky with reused symbolic analysis or preconditioned CG ([`LinearSolver`]); optional fixed-iteration mode (linearized steps) |
 //! | [`pcg`] | [`Pcg`]: preconditioned conjugate gradients (Jacobi or IC(0)) on the assembled lower-triangle Hessian, deterministic parallel matrix–vector products |
 //! | [`terms`] | [`Terms`]: the one term container (a [`Problem`]): heterogeneous terms ([`LocalEnergy`], [`RodTerm`] for any `rod::Stencil<N>`) with DOF indices and optional affine offsets |
-//! | [`constrained`] | [`minimize_constrained`] / [`ConstrainedNewtonSolver`]: Newton under linear equality constraints `Cx = d` via the augmented KKT system (sparse Cholesky of `H + μI + ρĈᵀĈ`, rows longer than [`LONG_ROW`] as a low-rank Woodbury update, Schur complement on the constraints) |
+//! | [`constrained`] | [`minimize_constrained`] / [`ConstrainedNewtonSolver`]: Newton under linear equality constraints `Cx = d` via the augmented KKT system (sparse Cholesky of `H + μI + ρĈᵀĈ`, Schur complement on the constraints) |
 //! | [`roots`] | [`find_root`]: safeguarded 1-D root finding in a sign-change bracket (Newton with a derivative, bisection without); [`secant`]: from one start point without a bracket (secant, Illinois regula falsi once bracketed, clipped steps, retries of failed evaluations) |
 //! | [`dense_newton`] | [`newton_dense`]: Newton for a few equations in as many unknowns (analytic or forward-difference Jacobian, damped steps, loud failure) |
 //! | [`lm`] | [`bounded_lm`]: bounded Levenberg–Marquardt for small least-squares fits (scaled parameters, active set, extra constraints) |
@@ -89,7 +89,7 @@ pub use assembly::{
     Assembled, Assembler, Problem, eval_rod_stencil, eval_rod_stencil_energy_offset,
     eval_rod_stencil_offset,
 };
-pub use constrained::{ConstrainedNewtonSolver, LONG_ROW, LinearConstraints, minimize_constrained};
+pub use constrained::{ConstrainedNewtonSolver, LinearConstraints, minimize_constrained};
 pub use continuation::{
     Attempt, ContinuationError, ContinuationReport, MarchError, MarchSettings, StepError, bisect,
     march,
