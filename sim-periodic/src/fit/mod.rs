@@ -810,14 +810,18 @@ fn lm_search(
     // after all.
     let mut correction: Option<DMatrix<f64>> = None;
     let mut previous: Option<(DVector<f64>, DVector<f64>, DMatrix<f64>)> = None;
+    let differenced_columns: Vec<usize> = (0..n).filter(|&k| differenced(k)).collect();
     let mut commit = |(x, r, solved): Trial, jacobian: &mut DMatrix<f64>| -> Result<(), FitError> {
-        let mut frozen = objective.jacobian(&solved, space, x.as_slice())?;
         // The geometric parameters' columns (zero in the frozen Jacobian): forward differences,
         // towards the box's inside, or away from it when that point has no equilibrium; a
-        // column stays zero when neither has one.
-        for k in (0..n).filter(|&k| differenced(k)) {
+        // column stays zero when neither has one. Each is a whole evaluation, independent of
+        // the frozen Jacobian and of the other columns, so all run in parallel with it (the
+        // result does not depend on the schedule): a lone local start otherwise left one of
+        // the two cores idle much of the time.
+        let column = |k: usize| -> (Option<DVector<f64>>, usize) {
             let d = GEOMETRY_DIFFERENCE_STEP;
             let step = if x[k] + d <= 1.0 { d } else { -d };
+            let mut evaluations = 0;
             for h in [step, -step] {
                 let mut q = x.as_slice().to_vec();
                 q[k] = (q[k] + h).clamp(0.0, 1.0);
@@ -825,12 +829,28 @@ fn lm_search(
                     // Outside the box (the point lies on a bound): no difference that way.
                     continue;
                 }
-                count.set(count.get() + 1);
+                evaluations += 1;
                 if let Ok(shifted) = objective.evaluate_at(space, &q) {
                     let dr = Objective::residuals(&shifted) - &r;
-                    frozen.set_column(k, &(dr / (q[k] - x[k])));
-                    break;
+                    return (Some(dr / (q[k] - x[k])), evaluations);
                 }
+            }
+            (None, evaluations)
+        };
+        let (frozen, columns) = rayon::join(
+            || objective.jacobian(&solved, space, x.as_slice()),
+            || {
+                differenced_columns
+                    .par_iter()
+                    .map(|&k| (k, column(k)))
+                    .collect::<Vec<_>>()
+            },
+        );
+        let mut frozen = frozen?;
+        for (k, (difference, evaluations)) in columns {
+            count.set(count.get() + evaluations);
+            if let Some(difference) = difference {
+                frozen.set_column(k, &difference);
             }
         }
         let b = correction.get_or_insert_with(|| DMatrix::zeros(r.len(), n));
