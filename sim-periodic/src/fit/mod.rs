@@ -846,6 +846,8 @@ fn lm_search(
                     .collect::<Vec<_>>()
             },
         );
+        // A point whose frozen Jacobian fails is rejected; its differences, computed
+        // speculatively, are dropped uncounted, as when they ran after it and never started.
         let mut frozen = frozen?;
         for (k, (difference, evaluations)) in columns {
             count.set(count.get() + evaluations);
