@@ -84,8 +84,7 @@ pub struct CurveSettings {
     /// | babyredo seed | 0.237 → 0.492 | 7.5 → 12.4 % | 25 → 37 | 340 → 478 s |
     /// | babyredo stockinette | 0.0755 → 0.0755 | 14.7 → 14.7 % | 4 → 4 | 77 → 60 s |
     ///
-    /// The slowest fit took 615 s instead of 591 s. Failed evaluations (no equilibrium: +∞
-    /// to the swarm) rose from 94 to 122 in all; a likely cause, not checked, is that a Newton
+    /// Failed evaluations (no equilibrium: +∞ to the swarm) rose from 94 to 122 in all; a likely cause, not checked, is that a Newton
     /// step may jump up to 0.2 in `c`, into jammed states that the secant's first probe of
     /// 0.01 does not reach. The held-out fabrics' mean comfort-range error went from 9.3 to
     /// 14.1 %. That spread says as much about how strongly one fit depends on its path as

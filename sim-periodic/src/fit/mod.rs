@@ -816,8 +816,11 @@ fn lm_search(
         // towards the box's inside, or away from it when that point has no equilibrium; a
         // column stays zero when neither has one. Each is a whole evaluation, independent of
         // the frozen Jacobian and of the other columns, so all run in parallel with it (the
-        // result does not depend on the schedule): a lone local start otherwise left one of
-        // the two cores idle much of the time.
+        // result does not depend on the schedule). Run one after another, a lone local start
+        // kept 1.0–1.5 of the 2 cores busy (the acrylic seed fit's last 150 s). The whole
+        // seed fit took 549.5 s (a timed run) and 580.9 s (`cargo bench -p bench --bench
+        // yarn_fit -- acrylic-yarn-seed`) against 627.2 s before (one timed run), a gain of
+        // the order of this machine's run-to-run spread.
         let column = |k: usize| -> (Option<DVector<f64>>, usize) {
             let d = GEOMETRY_DIFFERENCE_STEP;
             let step = if x[k] + d <= 1.0 { d } else { -d };
