@@ -41,6 +41,38 @@
 //! The reported fit error ([`Evaluation::comfort_error`]) is the paper's Fig. 15 metric: the
 //! mean absolute stress error over the comfort-range samples, relative to the largest target
 //! stress in the comfort range of the sample's direction.
+//!
+//! **Cost.** An evaluation is about 80 equilibrium solves. On the acrylic seed at its fitted
+//! point (64-vertex tile, 256 DOFs; the swarm's settings, 7 samples and 3 × 3 nodes; release,
+//! one thread, 1.99 s in all): the rest shape and period 0.33 s; the 9 compression
+//! root-finds 52 solves and 290 Newton iterations (5.8 solves per node; the node at `s = 0`
+//! 4–6 solves, for a compression of 10⁻⁶–10⁻³); the 21 stress samples 198 iterations, about
+//! 3.4 ms each. The tolerances are not where the time goes (one run each, same point):
+//!
+//! | change | Newton iterations | time | `g` |
+//! |---|---|---|---|
+//! | none (gradient tolerances 1e-9, root tolerances 1e-6 relative, 1e-8 N/m) | 516 | 1.88–1.98 s | 0.041220399 |
+//! | Newton gradient tolerances 1e-7 | 483 | 1.85 s | 0.041220404 |
+//! | Newton gradient tolerances 1e-6 | 460 | 1.79 s | 0.041220228 |
+//! | root tolerances 1e-4, 1e-4 N/m | 494 | 1.87 s | 0.041224139 |
+//! | root tolerances 1e-3, 1e-3 N/m | 476 | 1.70 s | 0.041225450 |
+//! | root tolerances 1e-2, 1e-2 N/m | 443 | 1.62 s | 0.041551332 |
+//!
+//! Two exact savings were tried with throw-away code and left out. Stopping an evaluation
+//! once its partial sum exceeds the only value it is compared with (a swarm particle's own
+//! best; a Levenberg–Marquardt trial's current cost) left every fit bit-identical (the
+//! development fabric: `g` 0.07309023740530758, 183 local evaluations) but saved little:
+//! the development fit took 82.6 and 83.1 s against 93.1 and 90.8 s (interleaved) with the
+//! directions sharing one sum, which makes where an evaluation stops depend on their
+//! schedule; 86.6 and 87.7 s against 91.5 and 90.9 s with the directions in order; its
+//! swarm phase 20.6 against 22.9 s; the seed's swarm phase 377 against 402 s, within this
+//! machine's spread. Most rejected points are not far above their bound, and the compression
+//! nodes, half the work, come before any stretch term. Reusing a solve's constrained Newton
+//! solver (pattern, symbolic Cholesky, rank check) for the next found 8 of 200 solves
+//! reusable: the sliding rows' coefficients are `F n`, so the constraints change with every
+//! coarse map. The promising change is structural: `σ_c = 0` is the stationarity of the
+//! energy in `c` (`∂E/∂c = −A σ_c` for the uniaxial map), so each node could be one Newton
+//! solve with `c` as one more degree of freedom instead of a root-find of about six.
 
 use crate::coarse::Coarse;
 use crate::curves::{CurveSettings, directional_stress, uniaxial_curve_states};
