@@ -72,7 +72,9 @@
 //! reusable: the sliding rows' coefficients are `F n`, so the constraints change with every
 //! coarse map. The promising change is structural: `σ_c = 0` is the stationarity of the
 //! energy in `c` (`∂E/∂c = −A σ_c` for the uniaxial map), so each node could be one Newton
-//! solve with `c` as one more degree of freedom instead of a root-find of about six.
+//! solve with `c` as one more degree of freedom instead of a root-find of about six — with
+//! the sliding rows then bilinear in `c` and the positions (their coefficients are `F n`),
+//! so no longer the linear constraints the constrained Newton solver takes.
 
 use crate::coarse::Coarse;
 use crate::curves::{CurveSettings, directional_stress, uniaxial_curve_states};
