@@ -8,9 +8,9 @@
 //! Runs the `yarn-fit` figure's pipeline ([`bench::figures::yarn_fit::fit_one`]: shell fit and
 //! uniform targets, then the swarm and Levenberg–Marquardt with the figure's full-mode
 //! settings) once per named fabric (default: the development fabric; `all`: every shared
-//! fabric) and prints the shell and yarn fit times, the objective evaluations of each phase,
-//! the yarn fit's seconds per evaluation, the final objective `g` and the comfort-range
-//! error. A fit is minutes long and deterministic, so it is timed once, not sampled.
+//! fabric) and prints the shell and yarn fit times, the yarn fit's phases (swarm, then
+//! local search) in seconds and in objective evaluations, the yarn fit's seconds per
+//! evaluation, the final objective `g` and the comfort-range error. A fit is minutes long and deterministic, so it is timed once, not sampled.
 
 use bench::figures::yarn_fit::{DEVELOPMENT_FABRIC, fabrics, fit_one, settings};
 
@@ -44,17 +44,29 @@ fn main() -> anyhow::Result<()> {
         rayon::current_num_threads()
     );
     println!(
-        "{:<28} {:>9} {:>9} {:>7} {:>7} {:>9} {:>8} {:>8}",
-        "fabric", "shell s", "yarn s", "swarm", "local", "s / eval", "g", "comfort"
+        "{:<28} {:>9} {:>9} {:>9} {:>9} {:>7} {:>7} {:>9} {:>8} {:>8}",
+        "fabric",
+        "shell s",
+        "yarn s",
+        "swarm s",
+        "local s",
+        "swarm",
+        "local",
+        "s / eval",
+        "g",
+        "comfort"
     );
     for fabric in chosen {
         let f = fit_one(fabric, &opts, &settings)?;
         let [swarm, local] = f.result.evaluations;
+        let [swarm_s, local_s] = f.result.seconds;
         println!(
-            "{:<28} {:>9.1} {:>9.1} {:>7} {:>7} {:>9.3} {:>8.4} {:>7.1}%",
+            "{:<28} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>7} {:>7} {:>9.3} {:>8.4} {:>7.1}%",
             f.name,
             f.shell_seconds,
             f.yarn_seconds,
+            swarm_s,
+            local_s,
             swarm,
             local,
             f.yarn_seconds / (swarm + local).max(1) as f64,

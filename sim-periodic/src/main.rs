@@ -509,6 +509,7 @@ fn fit(path: &Path) -> Result<()> {
         "swarm_best": result.swarm_best.as_ref().map(|(x, g)| json!({"normalized": x, "objective": g})),
         "evaluations": { "swarm": result.evaluations[0], "local": result.evaluations[1] },
         "failed_evaluations": result.failed,
+        "phase_seconds": { "swarm": result.seconds[0], "local": result.seconds[1] },
         "local_status": result.local_status,
     });
     write_json(&config.out.join("fit.json"), &summary)?;

@@ -265,6 +265,14 @@ fn restarts_keep_the_better_of_independent_seeds_and_zero_is_an_error() {
             a.evaluations[1] + b.evaluations[1]
         ]
     );
+    // Both phases are timed, summed over the restarts.
+    for r in [&a, &b, &both] {
+        assert!(
+            r.seconds.iter().all(|s| s.is_finite() && *s > 0.0),
+            "{:?}",
+            r.seconds
+        );
+    }
     let e = run(5, 0).unwrap_err().to_string();
     assert!(e.contains("restarts"), "{e}");
 }

@@ -552,6 +552,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 "name": f.name, "pattern": f.pattern.name(),
                 "parameters": f.result.values, "normalized": f.result.x,
                 "local_status": f.result.local_status, "failed_evaluations": f.result.failed,
+                "phase_seconds": f.result.seconds,
             })).collect::<Vec<_>>(),
             "shell": { "model": "stiffening", "test": "swatch", "nx": opts.swatch.nx, "ny": opts.swatch.ny, "target_points": TARGET_POINTS },
             "yarn": { "radius_m": 1e-3, "base_model": format!("{base:?}"), "settings": format!("{settings:?}") },

@@ -248,6 +248,9 @@ pub struct FitResult {
     pub evaluations: [usize; 2],
     /// Failed evaluations (no equilibrium for the candidate), counted as `+∞`.
     pub failed: usize,
+    /// Wall time (s) of each phase: swarm (with the choice of the local starts), local search
+    /// (with the final evaluation); summed over the restarts.
+    pub seconds: [f64; 2],
     /// How the local search stopped.
     pub local_status: String,
 }
@@ -472,7 +475,7 @@ pub fn fit(
     }
     // Independent restarts (SwarmSettings::restarts): the lowest final objective wins.
     let mut best: Option<FitResult> = None;
-    let (mut evaluations, mut failed) = ([0, 0], 0);
+    let (mut evaluations, mut failed, mut seconds) = ([0, 0], 0, [0.0, 0.0]);
     for r in 0..swarm.restarts {
         let seed = swarm.seed.wrapping_add(r as u64);
         let mut once = settings.clone();
@@ -484,6 +487,8 @@ pub fn fit(
         evaluations[0] += result.evaluations[0];
         evaluations[1] += result.evaluations[1];
         failed += result.failed;
+        seconds[0] += result.seconds[0];
+        seconds[1] += result.seconds[1];
         result.local_status = format!(
             "restart {} of {} (seed {seed}): {}",
             r + 1,
@@ -500,6 +505,7 @@ pub fn fit(
     let mut best = best.expect("at least one restart");
     best.evaluations = evaluations;
     best.failed = failed;
+    best.seconds = seconds;
     Ok(best)
 }
 
@@ -539,6 +545,7 @@ fn fit_once(
     objective(&settings.local_objective).check()?;
 
     // Global search.
+    let clock = std::time::Instant::now();
     let mut failed = 0;
     let mut last_error = String::new();
     let (starts, swarm_best, swarm_evaluations) = match &settings.swarm {
@@ -605,6 +612,7 @@ fn fit_once(
         }
     };
     let start = starts[0].clone();
+    let swarm_seconds = clock.elapsed().as_secs_f64();
 
     // Local refinement in the normalized box.
     let (x, status, local_evaluations) = match settings.local {
@@ -692,6 +700,7 @@ fn fit_once(
         evaluation,
         evaluations: [swarm_evaluations, local_evaluations],
         failed,
+        seconds: [swarm_seconds, clock.elapsed().as_secs_f64() - swarm_seconds],
         local_status: status,
     })
 }
