@@ -10,7 +10,8 @@
 //! settings) once per named fabric (default: the development fabric; `all`: every shared
 //! fabric) and prints the shell and yarn fit times, the yarn fit's phases (swarm, then
 //! local search) in seconds and in objective evaluations, the yarn fit's seconds per
-//! evaluation, the final objective `g` and the comfort-range error. A fit is minutes long and deterministic, so it is timed once, not sampled.
+//! evaluation, the final objective `g` and the comfort-range error. A fit is minutes long
+//! and deterministic, so it is timed once, not sampled.
 
 use bench::figures::yarn_fit::{DEVELOPMENT_FABRIC, fabrics, fit_one, settings};
 

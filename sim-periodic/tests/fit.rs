@@ -265,7 +265,7 @@ fn restarts_keep_the_better_of_independent_seeds_and_zero_is_an_error() {
             a.evaluations[1] + b.evaluations[1]
         ]
     );
-    // Both phases are timed, summed over the restarts.
+    // Both phases are timed, with and without restarts.
     for r in [&a, &b, &both] {
         assert!(
             r.seconds.iter().all(|s| s.is_finite() && *s > 0.0),
