@@ -55,9 +55,10 @@
 //! known direction of negative curvature rejects without a solve not, see
 //! `solver::NewtonReport::shifts_skipped`) and CG iterations of the accepted solves per step,
 //! the gradient residual after the step relative to its value at `qₙ` (the linearization
-//! error of the linearized steps; below 1e-9 for converged Newton), DoF-steps per second and
+//! error of the linearized steps; below 1e-9 for converged Newton), DoF-steps per second,
 //! the peak resident memory of the size (`VmHWM`, reset per size through
-//! `/proc/self/clear_refs`). Cholesky runs are skipped above `--max-chol-dofs` (the factor's
+//! `/proc/self/clear_refs`) and a fingerprint of the final state (a hash of the bits of `q`
+//! and `v`: a change meant to leave the steps bit for bit the same must leave it unchanged). Cholesky runs are skipped above `--max-chol-dofs` (the factor's
 //! memory grows superlinearly). The machine this was written for has 2 cores shared with
 //! other jobs, so the numbers are noisy (± tens of percent).
 
@@ -321,7 +322,7 @@ fn measure(scene: Scene, n: usize, config: &Config, steps: usize) {
     let ms = |x: f64| 1e3 * x;
     println!(
         "{:<15} {n:>4} {n_dofs:>8} {build:>7.2} {warmup:>8.2} {:>9.1} {:>8.1} {:>8.1} {:>8.1} \
-         {:>7.1} {iterations:>5.1} {solves:>6.1} {cg:>7.0} {residual:>9.1e} {:>11.3e} {:>8}",
+         {:>7.1} {iterations:>5.1} {solves:>6.1} {cg:>7.0} {residual:>9.1e} {:>11.3e} {:>8} {:016x}",
         config.name,
         ms(per_step),
         ms(setup),
@@ -330,10 +331,24 @@ fn measure(scene: Scene, n: usize, config: &Config, steps: usize) {
         ms(search),
         n_dofs as f64 / per_step,
         peak_rss_mib().map_or("?".into(), |m| format!("{m:.0}")),
+        state_fingerprint(sim.state()),
     );
     if substeps > 1.0 {
         println!("      (steps were halved: {substeps:.1} substeps per step on average)");
     }
+}
+
+/// FNV-1a hash of the bits of the final positions and velocities: equal fingerprints mean
+/// the same steps bit for bit (to check that a change meant to be exact is).
+fn state_fingerprint(state: &sim_persistent::state::State) -> u64 {
+    state
+        .q
+        .iter()
+        .chain(&state.v)
+        .flat_map(|x| x.to_bits().to_le_bytes())
+        .fold(0xcbf2_9ce4_8422_2325, |h, byte| {
+            (h ^ u64::from(byte)).wrapping_mul(0x0000_0100_0000_01b3)
+        })
 }
 
 /// The value after `flag` in the command line, if any.
@@ -381,7 +396,7 @@ fn main() {
          (a 30 fps frame is 33 steps)"
     );
     println!(
-        "{:<15} {:>4} {:>8} {:>7} {:>8} {:>9} {:>8} {:>8} {:>8} {:>7} {:>5} {:>6} {:>7} {:>9} {:>11} {:>8}",
+        "{:<15} {:>4} {:>8} {:>7} {:>8} {:>9} {:>8} {:>8} {:>8} {:>7} {:>5} {:>6} {:>7} {:>9} {:>11} {:>8} {:>16}",
         "config",
         "n",
         "DoFs",
@@ -397,7 +412,8 @@ fn main() {
         "CG its",
         "res/res0",
         "DoF-steps/s",
-        "peak MiB"
+        "peak MiB",
+        "state"
     );
     let start = Instant::now();
     for n in sides {

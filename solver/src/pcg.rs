@@ -549,7 +549,12 @@ struct IncompleteCholesky {
     col_ptr: Vec<usize>,
     row_idx: Vec<Index>,
     values: Vec<f64>,
-    /// `marker[i]`: value index of row `i` in the column being updated (`usize::MAX`: none).
+    /// The strictly lower entries by row: row `j`'s are `row_entries[row_ptr[j]..row_ptr[j + 1]]`,
+    /// each the value index `e` of `L̃[j, k]` and the end `col_ptr[k + 1]` of its column, in
+    /// increasing `k`.
+    row_ptr: Vec<usize>,
+    row_entries: Vec<(usize, usize)>,
+    /// `marker[i]`: value index of row `i` in the column being factorized (`usize::MAX`: none).
     marker: Vec<usize>,
 }
 
@@ -571,11 +576,33 @@ impl IncompleteCholesky {
                 )));
             }
         }
+        // Counting sort of the strictly lower entries by row; columns in increasing order, so
+        // every row's entries come out in increasing column order.
+        let mut row_ptr = vec![0usize; n + 1];
+        for j in 0..n {
+            for &i in &row_idx[col_ptr[j] + 1..col_ptr[j + 1]] {
+                row_ptr[i as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            row_ptr[i + 1] += row_ptr[i];
+        }
+        let mut next = row_ptr.clone();
+        let mut row_entries = vec![(0, 0); row_ptr[n]];
+        for k in 0..n {
+            for e in col_ptr[k] + 1..col_ptr[k + 1] {
+                let i = row_idx[e] as usize;
+                row_entries[next[i]] = (e, col_ptr[k + 1]);
+                next[i] += 1;
+            }
+        }
         Ok(Self {
             values: vec![0.0; col_ptr[n]],
             marker: vec![usize::MAX; n],
             col_ptr,
             row_idx,
+            row_ptr,
+            row_entries,
         })
     }
 
@@ -598,36 +625,39 @@ impl IncompleteCholesky {
         ))
     }
 
-    /// Right-looking IC(0) in place; `false` on a non-positive pivot.
+    /// Left-looking IC(0) in place; `false` on a non-positive pivot. Column `j` takes
+    /// `L̃[i, j] −= L̃[i, k] L̃[j, k]` from every earlier column `k` with `L̃[j, k] ≠ 0` (rows
+    /// `i ≥ j` of the pattern, `k` increasing), then its pivot. These are the right-looking
+    /// updates in the same order, so the factor is the same bit for bit; but each column's
+    /// pattern is scattered once, not once per column that updates it.
     fn try_factorize(&mut self) -> bool {
         let n = self.col_ptr.len() - 1;
         let (cp, ri) = (&self.col_ptr, &self.row_idx);
         let (values, marker) = (&mut self.values, &mut self.marker);
-        for k in 0..n {
-            let pivot = values[cp[k]];
-            if !(pivot > 0.0 && pivot.is_finite()) {
-                return false;
+        for j in 0..n {
+            for f in cp[j]..cp[j + 1] {
+                marker[ri[f] as usize] = f;
             }
-            let lkk = pivot.sqrt();
-            values[cp[k]] = lkk;
-            for e in cp[k] + 1..cp[k + 1] {
-                values[e] /= lkk;
-            }
-            for e1 in cp[k] + 1..cp[k + 1] {
-                let j = ri[e1] as usize;
-                let ljk = values[e1];
-                for f in cp[j]..cp[j + 1] {
-                    marker[ri[f] as usize] = f;
-                }
-                for e2 in e1..cp[k + 1] {
+            for &(e, end) in &self.row_entries[self.row_ptr[j]..self.row_ptr[j + 1]] {
+                let ljk = values[e];
+                for e2 in e..end {
                     let f = marker[ri[e2] as usize];
                     if f != usize::MAX {
                         values[f] -= values[e2] * ljk;
                     }
                 }
-                for f in cp[j]..cp[j + 1] {
-                    marker[ri[f] as usize] = usize::MAX;
-                }
+            }
+            for f in cp[j]..cp[j + 1] {
+                marker[ri[f] as usize] = usize::MAX;
+            }
+            let pivot = values[cp[j]];
+            if !(pivot > 0.0 && pivot.is_finite()) {
+                return false;
+            }
+            let ljj = pivot.sqrt();
+            values[cp[j]] = ljj;
+            for v in &mut values[cp[j] + 1..cp[j + 1]] {
+                *v /= ljj;
             }
         }
         true
@@ -651,6 +681,122 @@ impl IncompleteCholesky {
                 s -= v[e] * z[ri[e] as usize];
             }
             z[j] = s / v[cp[j]];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+
+    /// A sparse SPD-ish lower triangle: a banded random pattern with a dominant diagonal
+    /// (`dominance` scales it; small values make IC(0) break down without a shift).
+    fn random_lower(n: usize, seed: u64, dominance: f64) -> SparseColMat<usize, f64> {
+        let mut state = seed;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut col_ptr, mut row_idx, mut values) = (vec![0], Vec::new(), Vec::new());
+        for j in 0..n {
+            row_idx.push(j);
+            values.push(dominance * (1.0 + next()));
+            for i in j + 1..n.min(j + 12) {
+                if next() < 0.5 {
+                    row_idx.push(i);
+                    values.push(next() - 0.5);
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+        SparseColMat::new(symbolic, values)
+    }
+
+    /// IC(0) the textbook way (Saad Alg. 10.1 for the symmetric case) on a dense copy: for
+    /// `k = 0, 1, …`, take the pivot, scale column `k`, and subtract `L[i, k] L[j, k]` from
+    /// every later entry `(i, j)` of the pattern.
+    fn dense_ic0(lower: SparseColMatRef<'_, usize, f64>, mu: f64) -> Option<Vec<Vec<f64>>> {
+        let n = lower.ncols();
+        let mut a = vec![vec![0.0; n]; n];
+        let mut pattern = vec![vec![false; n]; n];
+        for j in 0..n {
+            for e in lower.col_ptr()[j]..lower.col_ptr()[j + 1] {
+                let i = lower.row_idx()[e];
+                a[i][j] = lower.val()[e] + if i == j { mu } else { 0.0 };
+                pattern[i][j] = true;
+            }
+        }
+        for k in 0..n {
+            if !(a[k][k] > 0.0) {
+                return None;
+            }
+            a[k][k] = a[k][k].sqrt();
+            for i in k + 1..n {
+                a[i][k] /= a[k][k];
+            }
+            for j in k + 1..n {
+                for i in j..n {
+                    if pattern[i][j] && pattern[i][k] && pattern[j][k] {
+                        a[i][j] -= a[i][k] * a[j][k];
+                    }
+                }
+            }
+        }
+        Some(a)
+    }
+
+    #[test]
+    fn incomplete_cholesky_is_the_textbook_factor_bit_for_bit() {
+        for (seed, dominance) in [(1, 4.0), (2, 2.0), (3, 8.0)] {
+            let lower = random_lower(200, seed, dominance);
+            let mu = 0.25;
+            let reference = dense_ic0(lower.as_ref(), mu).expect("a positive factor");
+            let mut ic = IncompleteCholesky::new(lower.as_ref()).unwrap();
+            ic.factorize(lower.val(), mu).unwrap();
+            for j in 0..200 {
+                for f in ic.col_ptr[j]..ic.col_ptr[j + 1] {
+                    let i = ic.row_idx[f] as usize;
+                    assert_eq!(
+                        ic.values[f], reference[i][j],
+                        "entry ({i}, {j}), seed {seed}"
+                    );
+                }
+            }
+        }
+        // A weak diagonal breaks the unshifted factorization down; the shifted retry is the
+        // textbook factor of A + μI + σ diag(A + μI) for the first σ that works.
+        let lower = random_lower(200, 4, 0.8);
+        assert!(dense_ic0(lower.as_ref(), 0.0).is_none());
+        let mut ic = IncompleteCholesky::new(lower.as_ref()).unwrap();
+        ic.factorize(lower.val(), 0.0).unwrap();
+        let sigma = [1e-3, 1e-2, 1e-1, 1.0]
+            .into_iter()
+            .find(|&s| {
+                let mut shifted = lower.clone();
+                for j in 0..200 {
+                    let d = &mut shifted.val_mut()[lower.col_ptr()[j]];
+                    *d *= 1.0 + s;
+                }
+                dense_ic0(shifted.as_ref(), 0.0).is_some()
+            })
+            .expect("some shift works");
+        let mut shifted = lower.clone();
+        for j in 0..200 {
+            shifted.val_mut()[lower.col_ptr()[j]] *= 1.0 + sigma;
+        }
+        let reference = dense_ic0(shifted.as_ref(), 0.0).unwrap();
+        for j in 0..200 {
+            for f in ic.col_ptr[j]..ic.col_ptr[j + 1] {
+                let i = ic.row_idx[f] as usize;
+                assert_eq!(
+                    ic.values[f], reference[i][j],
+                    "entry ({i}, {j}), σ = {sigma}"
+                );
+            }
         }
     }
 }
