@@ -76,6 +76,7 @@ use crate::params::{CompressionSettings, CompressionSolver};
 use crate::state::{DofMap, gather};
 use crate::topology::{FabricKind, KnitMap, Side, Topology};
 use nalgebra::{DMatrix, DVector, Matrix3};
+use rayon::prelude::*;
 use rod::Stencil;
 use rod::bending::AngleBending;
 use rod::geometry::V3;
@@ -418,7 +419,7 @@ impl CompressionEstimator {
         // Normals.
         let normals: Vec<V3> = self
             .stacks
-            .iter()
+            .par_iter()
             .map(|st| {
                 let mut pts = vec![pos(st.node)];
                 pts.extend(st.neighbours.iter().map(|&m| pos(m)));
@@ -453,19 +454,18 @@ impl CompressionEstimator {
                 _ => V3::zeros(),
             }
         };
-        let mut forces: Vec<Vec<V3>> = self
-            .stacks
-            .iter()
-            .map(|st| vec![V3::zeros(); self.yarn_slots[st.node].len()])
-            .collect();
-        let mut add = |n: usize, slot: usize, g: V3| {
-            if let Some((k, i)) = layer(n, slot) {
-                forces[k][i] -= g;
-            }
-        };
         let block = |g: &[f64], i: usize| V3::new(g[i], g[i + 1], g[i + 2]);
-        let mut wrap_index = 0;
-        for k in 0..terms.len() {
+        // The wings are matched to the wrapping terms in order: each one's ordinal.
+        let mut wrap_ordinal = vec![0; terms.len()];
+        let mut wraps = 0;
+        for (k, ordinal) in wrap_ordinal.iter_mut().enumerate() {
+            if terms.kind(k) == TermKind::Wrapping {
+                *ordinal = wraps;
+                wraps += 1;
+            }
+        }
+        // The force of term `k` on each (node, slot) it touches, through `emit`.
+        let contributions = |k: usize, emit: &mut dyn FnMut(usize, usize, V3)| {
             let d = terms.dofs(k);
             match terms.kind(k) {
                 TermKind::Stretch => {
@@ -476,9 +476,9 @@ impl CompressionEstimator {
                     let ends = [self.owner[d[3]], self.owner[d[7]]];
                     if !settings.crimp_offset {
                         for (e, &(n, slot)) in ends.iter().enumerate() {
-                            add(n, slot, block(g.as_slice(), 4 * e));
+                            emit(n, slot, block(g.as_slice(), 4 * e));
                         }
-                        continue;
+                        return;
                     }
                     // The tension from the real segment, its direction from the offset one.
                     let x = |e: usize| V3::new(local[4 * e], local[4 * e + 1], local[4 * e + 2]);
@@ -486,8 +486,8 @@ impl CompressionEstimator {
                     let tension = block(g.as_slice(), 4).dot(&t);
                     let [(n0, s0), (n1, s1)] = ends;
                     let off = (x(1) + offset(n1, s1) - x(0) - offset(n0, s0)).normalize();
-                    add(n0, s0, -tension * off);
-                    add(n1, s1, tension * off);
+                    emit(n0, s0, -tension * off);
+                    emit(n1, s1, tension * off);
                 }
                 TermKind::Bending => {
                     let s = terms.get::<AngleBending, 12>(k).expect("bending stencil");
@@ -495,7 +495,7 @@ impl CompressionEstimator {
                     let (_, g) = s.energy_and_gradient(&gather(q, d));
                     for e in 0..3 {
                         let (n, slot) = self.owner[d[4 * e + 3]];
-                        add(n, slot, block(g.as_slice(), 4 * e));
+                        emit(n, slot, block(g.as_slice(), 4 * e));
                     }
                 }
                 TermKind::Wrapping => {
@@ -505,11 +505,10 @@ impl CompressionEstimator {
                     let node = |k: usize| self.owner[d[3 * k]].0;
                     // The wings' own passes when this term is the next one built from the
                     // stitch contacts; else (terms built otherwise) the yarn joining the nodes.
-                    let own = self.wings.get(wrap_index).filter(|w| {
+                    let own = self.wings.get(wrap_ordinal[k]).filter(|w| {
                         [w[0][0].0, w[1][0].0, w[0][1].0, w[1][1].0]
                             == [node(0), node(1), node(2), node(3)]
                     });
-                    wrap_index += 1;
                     // Wings (q₀, q₄) and (q₁, q₃): blocks (0, 2) and (1, 3).
                     for (w, (a, b)) in [(0, 2), (1, 3)].into_iter().enumerate() {
                         let slots = match own {
@@ -517,16 +516,39 @@ impl CompressionEstimator {
                             None => self.joining_yarn(node(a), node(b)),
                         };
                         if let Some((sa, sb)) = slots {
-                            add(node(a), sa, block(g.as_slice(), 3 * a));
-                            add(node(b), sb, block(g.as_slice(), 3 * b));
+                            emit(node(a), sa, block(g.as_slice(), 3 * a));
+                            emit(node(b), sb, block(g.as_slice(), 3 * b));
                         }
                     }
                 }
                 _ => {}
             }
+        };
+        // The stencils' gradients in parallel over fixed blocks of terms; their sums in term
+        // order, so the result does not depend on the threads.
+        const BLOCK: usize = 1024;
+        let blocks: Vec<Vec<(usize, usize, V3)>> = (0..terms.len().div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                let mut out = Vec::new();
+                for k in b * BLOCK..terms.len().min((b + 1) * BLOCK) {
+                    contributions(k, &mut |n, slot, g| out.push((n, slot, g)));
+                }
+                out
+            })
+            .collect();
+        let mut forces: Vec<Vec<V3>> = self
+            .stacks
+            .iter()
+            .map(|st| vec![V3::zeros(); self.yarn_slots[st.node].len()])
+            .collect();
+        for (n, slot, g) in blocks.into_iter().flatten() {
+            if let Some((k, i)) = layer(n, slot) {
+                forces[k][i] -= g;
+            }
         }
         self.stacks
-            .iter()
+            .par_iter()
             .zip(normals)
             .zip(forces)
             .map(|((st, n), f)| {
