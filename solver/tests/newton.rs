@@ -595,3 +595,87 @@ fn known_directions_of_negative_curvature_skip_the_failing_cg_solves() {
         assert_eq!(run.1, 1, "later runs solve at the accepted shift only");
     }
 }
+
+/// Counts the stencil evaluations of the problem it wraps (with and without Hessian).
+struct Counted<'a, P> {
+    inner: &'a P,
+    gradients: std::sync::atomic::AtomicUsize,
+    hessians: std::sync::atomic::AtomicUsize,
+}
+
+impl<P: Problem> Problem for Counted<'_, P> {
+    fn n_dofs(&self) -> usize {
+        self.inner.n_dofs()
+    }
+    fn n_stencils(&self) -> usize {
+        self.inner.n_stencils()
+    }
+    fn stencil_dofs(&self, k: usize) -> &[usize] {
+        self.inner.stencil_dofs(k)
+    }
+    fn eval_stencil(&self, k: usize, x: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        let counter = if hess.is_some() {
+            &self.hessians
+        } else {
+            &self.gradients
+        };
+        counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.inner.eval_stencil(k, x, grad, hess)
+    }
+    fn stencil_energy(&self, k: usize, x: &[f64]) -> f64 {
+        self.inner.stencil_energy(k, x)
+    }
+}
+
+/// `final_residual = false`: a run stopped by the iteration limit ends without evaluating
+/// the gradient at its last iterate, which is the same bit for bit; its histories end
+/// before the last step. Without a line search the setting is refused.
+#[test]
+fn runs_at_the_iteration_limit_can_skip_the_final_residual() {
+    let (n, problem, x0, base) = concave_one_iteration_runs();
+    let mut results = Vec::new();
+    for final_residual in [true, false] {
+        let settings = NewtonSettings {
+            line_search: true,
+            final_residual,
+            ..base.clone()
+        };
+        let counted = Counted {
+            inner: &problem,
+            gradients: 0.into(),
+            hessians: 0.into(),
+        };
+        let mut x = x0.clone();
+        let report = minimize(&counted, &mut x, &vec![false; n], &settings).unwrap();
+        assert_eq!(report.termination, Termination::IterationLimit);
+        assert_eq!(report.iterations, 1);
+        let stencils = problem.n_stencils();
+        results.push((
+            x,
+            report.residual_history.len(),
+            report.energy_history.len(),
+            counted.gradients.into_inner() / stencils,
+            counted.hessians.into_inner() / stencils,
+        ));
+    }
+    let (with, without) = (&results[0], &results[1]);
+    assert_eq!(with.0, without.0, "the same iterate");
+    assert_eq!(
+        (with.1, with.2),
+        (2, 2),
+        "residual and energy after the step"
+    );
+    assert_eq!((without.1, without.2), (1, 1), "only those before it");
+    assert_eq!(with.4, without.4, "the same Hessian assemblies");
+    assert_eq!(with.3, without.3 + 1, "one gradient evaluation fewer");
+    let unchecked = NewtonSettings {
+        final_residual: false,
+        ..base
+    };
+    let mut x = x0.clone();
+    let err = minimize(&problem, &mut x, &vec![false; n], &unchecked).unwrap_err();
+    assert!(
+        matches!(&err, SolveError::InvalidSettings(m) if m.contains("final_residual")),
+        "{err}"
+    );
+}

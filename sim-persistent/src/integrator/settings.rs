@@ -150,7 +150,11 @@ impl StepSettings {
     /// The step is not iterated to convergence; its Newton report
     /// ends with [`solver::Termination::IterationLimit`] and still records the gradient
     /// residual of the incremental potential after the iteration
-    /// ([`NewtonReport::residual_history`]), so the linearization error stays visible. A
+    /// ([`NewtonReport::residual_history`]), so the linearization error stays visible; that
+    /// costs a gradient evaluation per step, which `newton.final_residual = false` skips
+    /// (the same steps bit for bit; measured on the dressed 92 352-DoF sweater of
+    /// `examples/scaling.rs`, 10 steps, 4 alternated pairs of runs: assembly 288–322 →
+    /// 172–234 ms, step 1044–1143 → 820–1069 ms). A
     /// step whose linear solve fails (or whose result is not finite) is halved as usual.
     /// The diagonal shift that an indefinite step's Hessian needs is carried from step to
     /// step ([`NewtonSettings::warm_start_regularization`]): with one iteration per step the

@@ -158,6 +158,12 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
         },
     };
     loop {
+        if settings.accept_iteration_limit
+            && !settings.final_residual
+            && run.report.iterations >= settings.max_iterations
+        {
+            return finish(run.report, Termination::IterationLimit, String::new());
+        }
         let iterate = run.evaluate(x)?;
         if !iterate.finite {
             return finish(run.report, Termination::NonFinite, String::new());

@@ -88,8 +88,9 @@
 //! `α = min(1, α_max)` without the Armijo test, and with `accept_iteration_limit = true`
 //! reaching `max_iterations` ends the run successfully with
 //! [`Termination::IterationLimit`] (not converged; the residual at the final iterate is
-//! still computed and reported). `max_iterations = 1` with both gives one linearized Newton
-//! step, e.g. the linearized implicit Euler of Baraff & Witkin (1998).
+//! still computed and reported, unless [`NewtonSettings::final_residual`] is `false`).
+//! `max_iterations = 1` with both gives one linearized Newton step, e.g. the linearized
+//! implicit Euler of Baraff & Witkin (1998).
 //!
 //! The symbolic factorization is computed once per [`NewtonSolver`] (on the first Cholesky
 //! solve); all numeric work other than the stencil evaluations and the conjugate gradients
@@ -175,6 +176,15 @@ pub struct NewtonSettings {
     /// When `true`, reaching `max_iterations` without convergence ends the run with `Ok`
     /// and [`Termination::IterationLimit`] instead of an error. Default `false`.
     pub accept_iteration_limit: bool,
+    /// With [`NewtonSettings::accept_iteration_limit`]: evaluate the gradient at the iterate
+    /// the limit stops at, to report its residual (the last entry of
+    /// [`NewtonReport::residual_history`], e.g. a linearized time step's linearization error)
+    /// and to check that it is finite. Default `true`. With `false` the run ends at the
+    /// limit without that evaluation, one gradient evaluation fewer per run: the iterate is
+    /// the same bit for bit, the residual and energy histories end before the last step, and
+    /// the final iterate's finiteness rests on the line search's energy test (so `false`
+    /// needs [`NewtonSettings::line_search`]).
+    pub final_residual: bool,
     /// Stop a stalled run early (module documentation): with `n > 0`, the run fails with
     /// [`SolveError::Stalled`] once the last `n` iterations lowered neither the residual by
     /// half nor the energy by more than its rounding allowance `ε_E`. `0` (the default): runs
@@ -203,6 +213,7 @@ impl Default for NewtonSettings {
             carried_shift_probe_interval: 0,
             line_search: true,
             accept_iteration_limit: false,
+            final_residual: true,
             stall_iterations: 0,
         }
     }
@@ -236,6 +247,12 @@ impl NewtonSettings {
         }
         if let LinearSolver::ConjugateGradient(pcg) = &self.linear_solver {
             pcg.validate()?;
+        }
+        if !self.final_residual && !self.line_search {
+            return bad(
+                "final_residual = false needs the line search (its energy test is then the only \
+                 check that the final iterate is finite)",
+            );
         }
         if self.carried_shift_probe_interval > 0 && !self.warm_start_regularization {
             return bad("carried_shift_probe_interval needs warm_start_regularization");
