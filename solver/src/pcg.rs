@@ -731,7 +731,7 @@ mod tests {
             }
         }
         for k in 0..n {
-            if !(a[k][k] > 0.0) {
+            if a[k][k].is_nan() || a[k][k] <= 0.0 {
                 return None;
             }
             a[k][k] = a[k][k].sqrt();
