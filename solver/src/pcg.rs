@@ -749,6 +749,25 @@ mod tests {
         Some(a)
     }
 
+    /// `lower` with its diagonal scaled by `1 + sigma`.
+    fn diagonal_scaled(lower: &SparseColMat<usize, f64>, sigma: f64) -> SparseColMat<usize, f64> {
+        let mut scaled = lower.clone();
+        for j in 0..lower.ncols() {
+            scaled.val_mut()[lower.col_ptr()[j]] *= 1.0 + sigma;
+        }
+        scaled
+    }
+
+    /// Every stored entry of `ic` equals the dense `reference` bit for bit.
+    fn assert_factor_is(ic: &IncompleteCholesky, reference: &[Vec<f64>], case: &str) {
+        for j in 0..ic.col_ptr.len() - 1 {
+            for f in ic.col_ptr[j]..ic.col_ptr[j + 1] {
+                let i = ic.row_idx[f] as usize;
+                assert_eq!(ic.values[f], reference[i][j], "entry ({i}, {j}), {case}");
+            }
+        }
+    }
+
     #[test]
     fn incomplete_cholesky_is_the_textbook_factor_bit_for_bit() {
         for (seed, dominance) in [(1, 4.0), (2, 2.0), (3, 8.0)] {
@@ -757,15 +776,7 @@ mod tests {
             let reference = dense_ic0(lower.as_ref(), mu).expect("a positive factor");
             let mut ic = IncompleteCholesky::new(lower.as_ref()).unwrap();
             ic.factorize(lower.val(), mu).unwrap();
-            for j in 0..200 {
-                for f in ic.col_ptr[j]..ic.col_ptr[j + 1] {
-                    let i = ic.row_idx[f] as usize;
-                    assert_eq!(
-                        ic.values[f], reference[i][j],
-                        "entry ({i}, {j}), seed {seed}"
-                    );
-                }
-            }
+            assert_factor_is(&ic, &reference, &format!("seed {seed}"));
         }
         // A weak diagonal breaks the unshifted factorization down; the shifted retry is the
         // textbook factor of A + μI + σ diag(A + μI) for the first σ that works.
@@ -773,30 +784,10 @@ mod tests {
         assert!(dense_ic0(lower.as_ref(), 0.0).is_none());
         let mut ic = IncompleteCholesky::new(lower.as_ref()).unwrap();
         ic.factorize(lower.val(), 0.0).unwrap();
-        let sigma = [1e-3, 1e-2, 1e-1, 1.0]
+        let reference = [1e-3, 1e-2, 1e-1, 1.0]
             .into_iter()
-            .find(|&s| {
-                let mut shifted = lower.clone();
-                for j in 0..200 {
-                    let d = &mut shifted.val_mut()[lower.col_ptr()[j]];
-                    *d *= 1.0 + s;
-                }
-                dense_ic0(shifted.as_ref(), 0.0).is_some()
-            })
+            .find_map(|sigma| dense_ic0(diagonal_scaled(&lower, sigma).as_ref(), 0.0))
             .expect("some shift works");
-        let mut shifted = lower.clone();
-        for j in 0..200 {
-            shifted.val_mut()[lower.col_ptr()[j]] *= 1.0 + sigma;
-        }
-        let reference = dense_ic0(shifted.as_ref(), 0.0).unwrap();
-        for j in 0..200 {
-            for f in ic.col_ptr[j]..ic.col_ptr[j + 1] {
-                let i = ic.row_idx[f] as usize;
-                assert_eq!(
-                    ic.values[f], reference[i][j],
-                    "entry ({i}, {j}), σ = {sigma}"
-                );
-            }
-        }
+        assert_factor_is(&ic, &reference, "shifted");
     }
 }
