@@ -10,7 +10,7 @@
 //! - incomplete Cholesky without fill, IC(0) (Saad §10.3): `P = L̃ L̃ᵀ` with `L̃` on the
 //!   lower-triangle pattern of `A`, factorized for every solve; if a pivot is not positive,
 //!   the factorization is retried on `A + μI + σ diag(A + μI)` with `σ = 10⁻³, 10⁻², …, 1`
-//!   (Manteuffel's shift). Its triangular solves are serial.
+//!   (Manteuffel's shift). Its (left-looking) factorization and triangular solves are serial.
 //!
 //! **Warm start** ([`PcgSettings::warm_start`]): the iteration starts from the `x` passed in
 //! (e.g. the previous time step's solution) instead of zero, `r₀ = b − (A + μI) x`. The
