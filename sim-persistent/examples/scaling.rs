@@ -62,8 +62,9 @@
 //! error of the linearized steps; below 1e-9 for converged Newton), DoF-steps per second,
 //! the peak resident memory of the size (`VmHWM`, reset per size through
 //! `/proc/self/clear_refs`) and a fingerprint of the final state (a hash of the bits of `q`
-//! and `v`: a change meant to leave the steps bit for bit the same must leave it unchanged). Cholesky runs are skipped above `--max-chol-dofs` (the factor's
-//! memory grows superlinearly). The machine this was written for has 2 cores shared with
+//! and `v`: a change meant to leave the steps bit for bit the same must leave it
+//! unchanged). Cholesky runs are skipped above `--max-chol-dofs` (the factor's memory grows
+//! superlinearly). The machine this was written for has 2 cores shared with
 //! other jobs, so the numbers are noisy (± tens of percent).
 
 use sim_persistent::chart::Chart;

@@ -560,3 +560,38 @@ fn damped_linearized_steps_follow_the_full_newton_pull() {
         worst(&full)
     );
 }
+
+/// The compression estimate runs its stencil gradients and node solves on rayon, summed in
+/// term order: on a 16 × 16 stockinette with every term (more than one block of 1024
+/// terms) one and two threads give the same estimate at every node.
+#[test]
+fn compression_estimate_does_not_depend_on_the_threads() {
+    let chart = Chart::stockinette(16, 16).unwrap();
+    let topo = Topology::knit(&chart);
+    let params = YarnParams::sweater();
+    let layout = Layout::new(&topo, &LayoutParams::new(W, params.radius)).unwrap();
+    let sim = Simulator::new(
+        topo,
+        &layout,
+        params,
+        ForceSet::default(),
+        StepSettings::default(),
+    )
+    .unwrap();
+    assert!(
+        sim.static_terms().len() > 2 * 1024,
+        "{} terms",
+        sim.static_terms().len()
+    );
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| sim.compression().unwrap())
+    };
+    let (one, two) = (on(1), on(2));
+    assert!(!one.is_empty());
+    assert!(one.iter().any(|e| e.closed_form.iter().any(|&l| l != 0.0)));
+    assert_eq!(one, two);
+}

@@ -37,6 +37,7 @@ use faer::sparse::SparseColMatRef;
 use rayon::prelude::*;
 
 use crate::SolveError;
+use crate::pattern::counting_sort;
 
 /// Row and column indices of the CG matrix and the IC(0) factor: 32 bits, so that every
 /// product and triangular solve reads 8 + 4 instead of 8 + 8 bytes per stored entry;
@@ -549,9 +550,9 @@ struct IncompleteCholesky {
     col_ptr: Vec<usize>,
     row_idx: Vec<Index>,
     values: Vec<f64>,
-    /// The strictly lower entries by row: row `j`'s are `row_entries[row_ptr[j]..row_ptr[j + 1]]`,
-    /// each the value index `e` of `L̃[j, k]` and the end `col_ptr[k + 1]` of its column, in
-    /// increasing `k`.
+    /// The strictly lower entries by row: row `j`'s are
+    /// `row_entries[row_ptr[j]..row_ptr[j + 1]]`, each the value index `e` of `L̃[j, k]` and
+    /// the end `col_ptr[k + 1]` of its column, in increasing `k`.
     row_ptr: Vec<usize>,
     row_entries: Vec<(usize, usize)>,
     /// `marker[i]`: value index of row `i` in the column being factorized (`usize::MAX`: none).
@@ -576,26 +577,15 @@ impl IncompleteCholesky {
                 )));
             }
         }
-        // Counting sort of the strictly lower entries by row; columns in increasing order, so
-        // every row's entries come out in increasing column order.
-        let mut row_ptr = vec![0usize; n + 1];
-        for j in 0..n {
-            for &i in &row_idx[col_ptr[j] + 1..col_ptr[j + 1]] {
-                row_ptr[i as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            row_ptr[i + 1] += row_ptr[i];
-        }
-        let mut next = row_ptr.clone();
-        let mut row_entries = vec![(0, 0); row_ptr[n]];
+        // The strictly lower entries sorted by row (stably, so every row's come in increasing
+        // column order), each with the end of its column.
+        let strictly_lower = (0..n).flat_map(|k| col_ptr[k] + 1..col_ptr[k + 1]);
+        let (row_ptr, by_row) = counting_sort(strictly_lower, n, |e| row_idx[e] as usize);
+        let mut column_end = vec![0; col_ptr[n]];
         for k in 0..n {
-            for e in col_ptr[k] + 1..col_ptr[k + 1] {
-                let i = row_idx[e] as usize;
-                row_entries[next[i]] = (e, col_ptr[k + 1]);
-                next[i] += 1;
-            }
+            column_end[col_ptr[k]..col_ptr[k + 1]].fill(col_ptr[k + 1]);
         }
+        let row_entries = by_row.into_iter().map(|e| (e, column_end[e])).collect();
         Ok(Self {
             values: vec![0.0; col_ptr[n]],
             marker: vec![usize::MAX; n],

@@ -66,8 +66,9 @@
 //! directions sharing one sum, which makes where an evaluation stops depend on their
 //! schedule; 86.6 and 87.7 s against 91.5 and 90.9 s with the directions in order, and with
 //! that variant its swarm phase 20.6 against 22.9 s and the seed's swarm phase 377 against
-//! 402 s (runs 40 minutes apart), within this machine's spread. Most rejected points are not far above their bound, and the compression
-//! nodes, half the work, come before any stretch term. Reusing a solve's constrained Newton
+//! 402 s (runs 40 minutes apart), within this machine's spread. Most rejected points are
+//! not far above their bound, and the compression nodes, half the work, come before any
+//! stretch term. Reusing a solve's constrained Newton
 //! solver (pattern, symbolic Cholesky, rank check) for the next found 8 of 200 solves
 //! reusable: the sliding rows' coefficients are `F n`, so the constraints change with every
 //! coarse map. The promising change is structural: `σ_c = 0` is the stationarity of the

@@ -514,7 +514,6 @@ impl Simulator {
             max_iterations: 200,
             line_search: true,
             accept_iteration_limit: false,
-            final_residual: true,
             ..self.settings.newton.clone()
         };
         let mut q = self.state.q.clone();

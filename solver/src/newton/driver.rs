@@ -160,6 +160,7 @@ pub(crate) fn run_newton<P: Problem + ?Sized, S: NewtonSystem>(
     loop {
         if settings.accept_iteration_limit
             && !settings.final_residual
+            && run.report.iterations > 0
             && run.report.iterations >= settings.max_iterations
         {
             return finish(run.report, Termination::IterationLimit, String::new());

@@ -183,7 +183,8 @@ pub struct NewtonSettings {
     /// limit without that evaluation, one gradient evaluation fewer per run: the iterate is
     /// the same bit for bit, the residual and energy histories end before the last step, and
     /// the final iterate's finiteness rests on the line search's energy test (so `false`
-    /// needs [`NewtonSettings::line_search`]).
+    /// needs [`NewtonSettings::line_search`]). A run limited to no step still evaluates its
+    /// start.
     pub final_residual: bool,
     /// Stop a stalled run early (module documentation): with `n > 0`, the run fails with
     /// [`SolveError::Stalled`] once the last `n` iterations lowered neither the residual by
