@@ -66,6 +66,28 @@
 //! unchanged). Cholesky runs are skipped above `--max-chol-dofs` (the factor's memory grows
 //! superlinearly). The machine this was written for has 2 cores shared with
 //! other jobs, so the numbers are noisy (± tens of percent).
+//!
+//! **Roofline.** The run starts by measuring the machine's memory bandwidth (STREAM triad on
+//! one thread and on every rayon thread). Under every IC-CG row it prints the memory roofline
+//! of that row's linear solves: the bytes that the CG iterations and IC(0) factorizations of a
+//! step must stream at least ([`solver::PcgTraffic`], for the step's own pattern, rebuilt after
+//! the timed steps), the time they take at the measured bandwidths (the triangular solves and
+//! the factorization at one thread's, the rest at all threads'), the measured solve time as a
+//! multiple of it, and the DoF-steps per second that this bound alone allows. Measured on the
+//! dressed sweater on 2026-11-29 (16.4 stored lower entries per unknown), `linear-ic-lag-3-warm-lean`:
+//!
+//! | DoFs | bandwidth, 1 / 2 threads | CG iterations per step | roofline of the solve | measured solve | cap |
+//! |---|---|---|---|---|---|
+//! | 92 352 (5 steps) | 14.1 / 19.7 GB/s | 17 | 101 ms | 323 ms (3.2×) | 9.1e5 DoF-steps/s |
+//! | 251 392 (5 steps) | 14.1 / 19.7 GB/s | 17 | 277 ms | 975 ms (3.5×) | 9.1e5 DoF-steps/s |
+//! | 998 144 (10 steps) | 11.1 / 14.8 GB/s | 33 | 2.64 s | 5.48 s (2.1×) | 3.8e5 DoF-steps/s |
+//!
+//! So with IC-CG at these iteration counts a 2-core machine cannot reach 1e6 DoF-steps/s at
+//! 1 M DoFs, however fast the code: the solve's memory traffic alone takes 2.6 s per step
+//! there. Reaching it needs fewer bytes per step (fewer CG iterations, a smaller matrix), not
+//! faster loops. The measured solves take 2–3.5× their roofline; the triangular solves are
+//! bound by the latency of their scattered updates rather than by bandwidth (a factor stored
+//! in `f32` was no faster).
 
 use sim_persistent::chart::Chart;
 use sim_persistent::forces::ForceSet;
@@ -75,7 +97,7 @@ use sim_persistent::integrator::{
 use sim_persistent::layout::{Layout, LayoutParams};
 use sim_persistent::params::YarnParams;
 use sim_persistent::topology::{Topology, knit_boundary_nodes};
-use solver::{LinearSolver, PcgSettings, Preconditioner};
+use solver::{LinearSolver, PcgSettings, PcgTraffic, Preconditioner};
 use std::time::Instant;
 
 /// A step configuration of the benchmark.
@@ -281,8 +303,47 @@ enum Scene {
     Sweater,
 }
 
-/// Builds, warms up and times the scene of size `n` under `config`; prints its row.
-fn measure(scene: Scene, n: usize, config: &Config, steps: usize) {
+/// STREAM-triad bandwidth (bytes/s, counting 24 bytes per element as STREAM does) on
+/// `threads` threads: the best of 5 passes of `a = b + 3 c` over arrays of 2²³ doubles
+/// (64 MiB each, beyond the caches), in fixed chunks.
+fn triad_bandwidth(threads: usize) -> f64 {
+    use rayon::prelude::*;
+    let n = 1 << 23;
+    let (b, c) = (vec![1.0f64; n], vec![2.0f64; n]);
+    let mut a = vec![0.0f64; n];
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool");
+    let mut best = f64::INFINITY;
+    for _ in 0..5 {
+        let start = Instant::now();
+        pool.install(|| {
+            a.par_chunks_mut(1 << 16)
+                .zip(b.par_chunks(1 << 16))
+                .zip(c.par_chunks(1 << 16))
+                .for_each(|((a, b), c)| {
+                    for i in 0..a.len() {
+                        a[i] = b[i] + 3.0 * c[i];
+                    }
+                });
+        });
+        best = best.min(start.elapsed().as_secs_f64());
+        std::hint::black_box(&a);
+    }
+    24.0 * n as f64 / best
+}
+
+/// Memory bandwidths of this machine (bytes/s): one thread and every rayon thread.
+#[derive(Clone, Copy)]
+struct Bandwidth {
+    serial: f64,
+    parallel: f64,
+}
+
+/// Builds, warms up and times the scene of size `n` under `config`; prints its row (and, for
+/// CG configurations, the memory roofline of its solve at `bandwidth`).
+fn measure(scene: Scene, n: usize, config: &Config, steps: usize, bandwidth: Bandwidth) {
     reset_peak_rss();
     let build_start = Instant::now();
     let mut sim = match scene {
@@ -353,6 +414,31 @@ fn measure(scene: Scene, n: usize, config: &Config, steps: usize) {
     if substeps > 1.0 {
         println!("      (steps were halved: {substeps:.1} substeps per step on average)");
     }
+    if matches!(config.pcg, Some((_, Preconditioner::IncompleteCholesky))) {
+        // The step's pattern, as the simulator's Newton solver built it.
+        match solver::Assembler::with_fixed_dofs(&sim.step_potential(), sim.fixed()) {
+            Ok(asm) => {
+                let (free, lower) = (asm.n_free(), asm.hessian().col_ptr()[asm.n_free()]);
+                let traffic = PcgTraffic::incomplete_cholesky(free, lower);
+                let roof = traffic.seconds(cg, solves, bandwidth.parallel, bandwidth.serial);
+                println!(
+                    "      roofline: {free} unknowns, {lower} lower entries; {:.0} MB per CG \
+                     iteration ({:.0} serial), {:.0} MB per solve ({:.0} serial); at the \
+                     measured bandwidths the CG iterations and solves of a step take ≥ {:.1} \
+                     ms (measured solve {:.2}× that), which caps the step at {:.3e} \
+                     DoF-steps/s were everything else free",
+                    1e-6 * (traffic.iteration_parallel + traffic.iteration_serial),
+                    1e-6 * traffic.iteration_serial,
+                    1e-6 * (traffic.solve_parallel + traffic.solve_serial),
+                    1e-6 * traffic.solve_serial,
+                    ms(roof),
+                    solve / roof,
+                    n_dofs as f64 / roof,
+                );
+            }
+            Err(e) => println!("      roofline: pattern not rebuilt ({e})"),
+        }
+    }
 }
 
 /// FNV-1a hash of the bits of the final positions and velocities: equal fingerprints mean
@@ -403,6 +489,10 @@ fn main() {
     let max_chol: f64 = arg("--max-chol-dofs").map_or(2.5e5, |s| s.parse().expect("number"));
     let budget: f64 = arg("--budget").map_or(600.0, |s| s.parse().expect("--budget: seconds"));
     let threads = rayon::current_num_threads();
+    let bandwidth = Bandwidth {
+        serial: triad_bandwidth(1),
+        parallel: triad_bandwidth(threads),
+    };
     let what = match scene {
         Scene::Garter => "hanging garter n × n",
         Scene::Sweater => "sweater of 8 sectors of n loops dressed on a mannequin mesh",
@@ -411,6 +501,12 @@ fn main() {
         "scaling: {what}, sweater yarn, dt = 1 ms, α = 10 /s, β = 0.01 s, all terms; \
          {threads} rayon threads; {steps} timed steps after one warm-up; times in ms per step \
          (a 30 fps frame is 33 steps)"
+    );
+    println!(
+        "memory bandwidth (STREAM triad, best of 5 over 3 × 64 MiB): {:.1} GB/s on 1 thread, \
+         {:.1} GB/s on {threads}",
+        1e-9 * bandwidth.serial,
+        1e-9 * bandwidth.parallel
     );
     println!(
         "{:<15} {:>4} {:>8} {:>7} {:>8} {:>9} {:>8} {:>8} {:>8} {:>7} {:>5} {:>6} {:>7} {:>9} {:>11} {:>8} {:>16}",
@@ -450,7 +546,7 @@ fn main() {
                 println!("budget of {budget:.0} s spent; stopping");
                 return;
             }
-            measure(scene, n, config, steps);
+            measure(scene, n, config, steps, bandwidth);
         }
     }
     println!("total {:.1} s", start.elapsed().as_secs_f64());

@@ -7,7 +7,7 @@
 //! |---|---|
 //! | [`assembly`] | the [`Problem`] trait; [`Assembler`]: fixed-pattern, parallel, deterministic sparse assembly of energy, gradient and (optionally SPD-projected) Hessian |
 //! | [`newton`] | [`minimize`] / [`NewtonSolver`]: Newton with backtracking line search, Dirichlet DOFs, adaptive diagonal regularization, sparse Cholesky with reused symbolic analysis or preconditioned CG ([`LinearSolver`]); optional fixed-iteration mode (linearized steps) |
-//! | [`pcg`] | [`Pcg`]: preconditioned conjugate gradients (Jacobi or IC(0)) on the assembled lower-triangle Hessian, deterministic parallel matrix–vector products |
+//! | [`pcg`] | [`Pcg`]: preconditioned conjugate gradients (Jacobi or IC(0)) on the assembled lower-triangle Hessian, deterministic parallel matrix–vector products; [`PcgTraffic`]: the least bytes an IC-CG solve streams (its memory roofline) |
 //! | [`terms`] | [`Terms`]: the one term container (a [`Problem`]): heterogeneous terms ([`LocalEnergy`], [`RodTerm`] for any `rod::Stencil<N>`) with DOF indices and optional affine offsets |
 //! | [`constrained`] | [`minimize_constrained`] / [`ConstrainedNewtonSolver`]: Newton under linear equality constraints `Cx = d` via the augmented KKT system (sparse Cholesky of `H + μI + ρĈᵀĈ`, Schur complement on the constraints) |
 //! | [`roots`] | [`find_root`]: safeguarded 1-D root finding in a sign-change bracket (Newton with a derivative, bisection without); [`secant`]: from one start point without a bracket (secant, Illinois regula falsi once bracketed, clipped steps, retries of failed evaluations) |
@@ -105,7 +105,7 @@ pub use lm::{
 pub use newton::{
     LinearSolver, NewtonReport, NewtonSettings, NewtonSolver, NewtonTimings, Termination, minimize,
 };
-pub use pcg::{Pcg, PcgFailure, PcgReport, PcgSettings, Preconditioner};
+pub use pcg::{Pcg, PcgFailure, PcgReport, PcgSettings, PcgTraffic, Preconditioner};
 pub use roots::{
     Bracket, Root, RootError, RootEval, RootReport, RootSettings, SecantError, SecantEval,
     SecantReport, SecantRoot, SecantSettings, find_root, secant,

@@ -113,6 +113,53 @@ pub struct PcgReport {
     pub relative_residual: f64,
 }
 
+/// The bytes that [`Pcg::solve`] with the IC(0) preconditioner streams from and to memory at
+/// least, for `n` unknowns whose lower triangle stores `lower_nnz` entries (diagonal
+/// included): the memory roofline of the solve. Every stored value counts 8 bytes and every
+/// row or column index 4 (an entry) or 8 (a pointer); every vector read or written once per
+/// pass counts 8 bytes per unknown; the gather of `p` in the product and the updates of
+/// earlier columns in the factorization count nothing (cached at best). So the counts are
+/// lower bounds, split by the parts that run in parallel (the product, the vector updates and
+/// dot products, the gather of the values) and those that run serially (the triangular solves
+/// and the factorization), because one core streams more slowly than all of them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PcgTraffic {
+    /// Per CG iteration, parallel: the product `(A + μI) p` over the full symmetric matrix
+    /// (`12 (2 lower_nnz − n) + 24 n`), the fused update of `x`, `r`, `z` (`64 n`), two dot
+    /// products (`32 n`) and the update of `p` (`24 n`).
+    pub iteration_parallel: f64,
+    /// Per CG iteration, serial: the forward and backward substitutions with `L̃`
+    /// (`2 (12 lower_nnz + 24 n)`) and the copy of `r` (`16 n`).
+    pub iteration_serial: f64,
+    /// Per solve, parallel: the gather of the full symmetric values (`24 (2 lower_nnz − n)`:
+    /// source index, value, copy) and the Jacobi diagonal (`16 n`).
+    pub solve_parallel: f64,
+    /// Per solve, serial: the IC(0) factorization (`36 lower_nnz`: the copy of the values,
+    /// one read and one write of every entry, and the row lists).
+    pub solve_serial: f64,
+}
+
+impl PcgTraffic {
+    /// The counts for `n` unknowns and `lower_nnz` stored lower-triangle entries.
+    pub fn incomplete_cholesky(n: usize, lower_nnz: usize) -> Self {
+        let (n, lower) = (n as f64, lower_nnz as f64);
+        let full = 2.0 * lower - n;
+        Self {
+            iteration_parallel: 12.0 * full + 24.0 * n + 64.0 * n + 32.0 * n + 24.0 * n,
+            iteration_serial: 2.0 * (12.0 * lower + 24.0 * n) + 16.0 * n,
+            solve_parallel: 24.0 * full + 16.0 * n,
+            solve_serial: 36.0 * lower,
+        }
+    }
+
+    /// The shortest time (s) of `iterations` CG iterations and `solves` solves at the
+    /// bandwidths `parallel` (all threads) and `serial` (one thread), in bytes per second.
+    pub fn seconds(&self, iterations: f64, solves: f64, parallel: f64, serial: f64) -> f64 {
+        iterations * (self.iteration_parallel / parallel + self.iteration_serial / serial)
+            + solves * (self.solve_parallel / parallel + self.solve_serial / serial)
+    }
+}
+
 /// Why a PCG solve failed.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum PcgFailure {
@@ -779,5 +826,39 @@ mod tests {
             .find_map(|sigma| dense_ic0(diagonal_scaled(&lower, sigma).as_ref(), 0.0))
             .expect("some shift works");
         assert_factor_is(&ic, &reference, "shifted");
+    }
+
+    #[test]
+    fn the_traffic_model_counts_at_least_the_stored_arrays() {
+        // Every pass over the workspace's stored arrays is counted at least once: the product
+        // reads the full values and column indices, each substitution the factor's values and
+        // row indices, the factorization writes and reads the factor's values.
+        let lower = random_lower(300, 11, 4.0);
+        let mut pcg = Pcg::new(lower.as_ref()).unwrap();
+        let b = vec![1.0; 300];
+        let mut x = vec![0.0; 300];
+        let settings = PcgSettings::new(1e-8, 300, Preconditioner::IncompleteCholesky);
+        pcg.solve(lower.as_ref(), 0.0, &b, &mut x, &settings)
+            .unwrap();
+        let ic = pcg.ic.as_ref().unwrap();
+        let t = PcgTraffic::incomplete_cholesky(300, lower.col_ptr()[300]);
+        let product = (8 * pcg.values.len() + 4 * pcg.col_idx.len()) as f64;
+        let substitution = (8 * ic.values.len() + 4 * ic.row_idx.len()) as f64;
+        assert!(
+            t.iteration_parallel >= product,
+            "{} < {product}",
+            t.iteration_parallel
+        );
+        assert!(t.iteration_serial >= 2.0 * substitution);
+        assert!(t.solve_serial >= 2.0 * 8.0 * ic.values.len() as f64);
+        assert!(t.solve_parallel >= 16.0 * pcg.values.len() as f64);
+        // Time: linear in the counts and inverse in the bandwidths.
+        let one = t.seconds(1.0, 0.0, 1.0, 1.0);
+        assert_eq!(one, t.iteration_parallel + t.iteration_serial);
+        assert_eq!(
+            t.seconds(3.0, 2.0, 2.0, 4.0),
+            3.0 * (t.iteration_parallel / 2.0 + t.iteration_serial / 4.0)
+                + 2.0 * (t.solve_parallel / 2.0 + t.solve_serial / 4.0)
+        );
     }
 }
