@@ -135,7 +135,8 @@ pub struct PcgTraffic {
     /// source index, value, copy) and the Jacobi diagonal (`16 n`).
     pub solve_parallel: f64,
     /// Per solve, serial: the IC(0) factorization (`36 lower_nnz`: the copy of the values,
-    /// one read and one write of every entry, and the row lists).
+    /// the row indices of each column's scatter, and the read and write of its final
+    /// scaling; the row lists and the updates from earlier columns are not counted).
     pub solve_serial: f64,
 }
 
