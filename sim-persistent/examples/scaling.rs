@@ -81,6 +81,7 @@
 //! | 92 352 (5 steps) | 14.1 / 19.7 GB/s | 17 | 101 ms | 323 ms (3.2×) | 9.1e5 DoF-steps/s |
 //! | 251 392 (5 steps) | 14.1 / 19.7 GB/s | 17 | 277 ms | 975 ms (3.5×) | 9.1e5 DoF-steps/s |
 //! | 998 144 (10 steps) | 11.1 / 14.8 GB/s | 33 | 2.64 s | 5.48 s (2.1×) | 3.8e5 DoF-steps/s |
+//! | 998 144 (10 steps, a second run) | 10.9 / 15.2 GB/s | 33 | 2.63 s | 5.17 s (2.0×) | 3.8e5 DoF-steps/s |
 //!
 //! So with IC-CG at these iteration counts a 2-core machine cannot reach 1e6 DoF-steps/s at
 //! 1 M DoFs, however fast the code: the solve's memory traffic alone takes 2.6 s per step
