@@ -69,8 +69,9 @@
 //!
 //! **Roofline.** The run starts by measuring the machine's memory bandwidth (STREAM triad on
 //! one thread and on every rayon thread). Under every IC-CG row it prints the memory roofline
-//! of that row's linear solves: the bytes that the CG iterations and IC(0) factorizations of a
-//! step must stream at least ([`solver::PcgTraffic`], for the step's own pattern, rebuilt after
+//! of that row's linear solves: the bytes that the CG iterations (of the accepted solves, as
+//! the `CG its` column counts them) and IC(0) factorizations (one per linear solve, the
+//! `solves` column) of a step must stream at least ([`solver::PcgTraffic`], for the step's own pattern, rebuilt after
 //! the timed steps), the time they take at the measured bandwidths (the triangular solves and
 //! the factorization at one thread's, the rest at all threads'), the measured solve time as a
 //! multiple of it, and the DoF-steps per second that this bound alone allows. Measured on the

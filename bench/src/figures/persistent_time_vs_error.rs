@@ -146,20 +146,21 @@ impl Family {
             Family::Tolerance(t) => (1e-3, t, true),
         };
         let mut s = settings(dt, tol, return_mapping);
-        if let Family::Linearized(_)
-        | Family::LinearizedWarmCg(_)
-        | Family::LinearizedLooseCg(_)
-        | Family::LinearizedFull(_) = self
-        {
-            s.linearized_cg = Some(if matches!(self, Family::LinearizedLooseCg(_)) {
-                LOOSE_CG_TOL
-            } else {
-                LINEARIZED_CG_TOL
-            });
-            s.cg_warm_start = matches!(self, Family::LinearizedWarmCg(_));
-            s.linearized_full_steps = matches!(self, Family::LinearizedFull(_));
-        }
+        s.linearized_cg = self.linearized_cg_tolerance();
+        s.cg_warm_start = matches!(self, Family::LinearizedWarmCg(_));
+        s.linearized_full_steps = matches!(self, Family::LinearizedFull(_));
         s
+    }
+
+    /// The relative CG tolerance of the linearized families (`None`: full Newton steps).
+    fn linearized_cg_tolerance(self) -> Option<f64> {
+        match self {
+            Family::Linearized(_) | Family::LinearizedWarmCg(_) | Family::LinearizedFull(_) => {
+                Some(LINEARIZED_CG_TOL)
+            }
+            Family::LinearizedLooseCg(_) => Some(LOOSE_CG_TOL),
+            Family::Dt(_) | Family::DtExplicit(_) | Family::Tolerance(_) => None,
+        }
     }
 
     fn key(self) -> String {
@@ -376,11 +377,12 @@ const GARMENT_DTS: [f64; 3] = [5e-4, 1e-3, 2e-3];
 /// (`sim_persistent::experiment::garment`, the `garment` figure's scene, smaller), simulated
 /// for [`GARMENT_TIME`] with full Newton (Cholesky, the default) and with linearized steps and
 /// IC-CG (the fast configuration), with and without warm-started CG, at CG tolerance
-/// [`LOOSE_CG_TOL`], and at full length (ref. 6), at each of [`GARMENT_DTS`]. Error: RMS over the nodes of the distance to the
-/// reference's node positions at the end, in yarn radii. Rows of family 4 (full Newton), 5
-/// (linearized), 7 (linearized, warm-started CG), 9 (linearized at full length) and 11
-/// (linearized, CG at [`LOOSE_CG_TOL`]) in the table, their `error` column in yarn radii (the rib families 0–3, 6 and 8 hold the
-/// relative force error there); chart `…-garment`.
+/// [`LOOSE_CG_TOL`], and at full length (ref. 6), at each of [`GARMENT_DTS`]. Error: RMS
+/// over the nodes of the distance to the reference's node positions at the end, in yarn
+/// radii. Rows of family 4 (full Newton), 5 (linearized), 7 (linearized, warm-started CG),
+/// 9 (linearized at full length) and 11 (linearized, CG at [`LOOSE_CG_TOL`]) in the table,
+/// their `error` column in yarn radii (the rib families 0–3, 6, 8 and 10 hold the relative
+/// force error there); chart `…-garment`.
 fn garment_study(
     ctx: &FigureContext,
     data: &mut Table,
