@@ -1,0 +1,154 @@
+//! The cost of one yarn-fit objective evaluation (issue 15's speed goal), apart from the
+//! optimizers' paths.
+//!
+//! ```text
+//! cargo bench -p bench --bench yarn_objective [-- FABRIC ... | all] [--points N]
+//! ```
+//!
+//! For each named fabric (default: the development fabric; `all`: every shared fabric) it
+//! builds the `yarn-fit` figure's targets and parameter box ([`bench::figures::yarn_fit`]:
+//! shell fit and uniform targets, the paper's five parameters and the tile's stretch along x
+//! and y), then evaluates the swarm's objective (Eq. 11 with the rest-shape estimation, the
+//! figure's full-mode swarm settings) at `N` (default 10) fixed pseudo-random points of the
+//! normalized box, one at a time, and prints the tile's vertices, how many evaluations solved
+//! and failed, seconds per solved and per failed evaluation, and Newton iterations and
+//! milliseconds per Newton iteration of the solved ones.
+//!
+//! A whole fit (`--bench yarn_fit`) takes minutes and, after any change that moves rounding,
+//! follows another path through the swarm and the local search, so its time mixes the cost of
+//! an evaluation with the path. These points do not depend on any optimizer. Failed
+//! evaluations are counted apart: a solve that runs to its iteration limit can cost several
+//! solved evaluations.
+//!
+//! Measured (release, 2 cores, 2026-11-29, 10 points each): a Newton iteration costs
+//! 0.61–0.63 ms on the 16-vertex stockinettes, 1.08–1.35 ms on the 32-vertex garters and ribs
+//! and 2.36–2.38 ms on the 64-vertex seeds, linear in the tile's size; a solved evaluation
+//! 0.22, 0.78–1.03 and 1.88–2.00 s (345–372, 622–830 and 799–842 Newton iterations). The seeds'
+//! fits are the slowest because their tile is the largest.
+
+use std::time::Instant;
+
+use bench::figures::yarn_fit::{
+    DEVELOPMENT_FABRIC, fabrics, fit_geometry, pattern_of, settings, shell_targets,
+    with_fitted_geometry,
+};
+use sim_periodic::fit::{Objective, ParameterSpace, estimated_radius};
+use sim_periodic::periodic::YarnModel;
+
+/// Yarn radius of the `yarn-fit` figure's tiles (m).
+const RADIUS: f64 = 1e-3;
+
+fn main() -> anyhow::Result<()> {
+    // `cargo bench` passes `--bench` (and the harness options) to the binary.
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut points = 10;
+    let mut names = Vec::new();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        if a == "--points" {
+            let value = it
+                .next()
+                .ok_or_else(|| anyhow::anyhow!("--points needs a count"))?;
+            points = value
+                .parse()
+                .map_err(|_| anyhow::anyhow!("--points: expected a count, found {value:?}"))?;
+        } else if !a.starts_with("--") {
+            names.push(a.clone());
+        }
+    }
+    let (all, opts) = fabrics(false)?;
+    let chosen: Vec<_> = if names.iter().any(|n| n == "all") {
+        all.iter().collect()
+    } else if names.is_empty() {
+        all.iter()
+            .filter(|f| f.name == DEVELOPMENT_FABRIC)
+            .collect()
+    } else {
+        let mut chosen = Vec::new();
+        for name in &names {
+            let Some(f) = all.iter().find(|f| &f.name == name) else {
+                let known: Vec<&str> = all.iter().map(|f| f.name.as_str()).collect();
+                anyhow::bail!("no fabric {name:?}; known: {}", known.join(", "));
+            };
+            chosen.push(f);
+        }
+        chosen
+    };
+    let swarm_objective = settings(false).swarm_objective;
+    println!(
+        "yarn-fit swarm objective at {points} fixed points of the box, {} threads",
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:<26} {:>8} {:>6} {:>6} {:>10} {:>10} {:>10} {:>9} {:>8}",
+        "fabric",
+        "vertices",
+        "solved",
+        "failed",
+        "s / solved",
+        "s / failed",
+        "its/solved",
+        "ms / it",
+        "total s"
+    );
+    for fabric in chosen {
+        let targets = shell_targets(fabric, &opts)?;
+        let pattern = pattern_of(&fabric.name)?;
+        let base = YarnModel::default_for_radius(RADIUS);
+        let geometry = fit_geometry(pattern, RADIUS)?;
+        let space = ParameterSpace::paper(&base, estimated_radius(&geometry, &base)?)?;
+        let space = with_fitted_geometry(space, pattern, RADIUS)?;
+        let objective = Objective {
+            geometry: &geometry,
+            targets: &targets,
+            settings: swarm_objective.clone(),
+        };
+        let mut state = 0x2545_F491_4F6C_DD1D_u64;
+        let (mut solved, mut failed) = ((0, 0.0, 0), (0, 0.0));
+        for _ in 0..points {
+            let x: Vec<f64> = (0..space.dim())
+                .map(|_| {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    (state >> 11) as f64 / (1u64 << 53) as f64
+                })
+                .collect();
+            let clock = Instant::now();
+            let result = objective.evaluate_at(&space, &x);
+            let seconds = clock.elapsed().as_secs_f64();
+            match result {
+                Ok(e) => {
+                    solved.0 += 1;
+                    solved.1 += seconds;
+                    solved.2 += e.iterations;
+                }
+                Err(_) => {
+                    failed.0 += 1;
+                    failed.1 += seconds;
+                }
+            }
+        }
+        // A ratio, or "-" without evaluations to divide by.
+        let per = |s: f64, n: usize, scale: f64, digits: usize| {
+            if n > 0 {
+                format!("{:.digits$}", scale * s / n as f64)
+            } else {
+                "-".to_string()
+            }
+        };
+        println!(
+            "{:<26} {:>8} {:>6} {:>6} {:>10} {:>10} {:>10} {:>9} {:>8.2}",
+            fabric.name,
+            geometry.n_vertices(),
+            solved.0,
+            failed.0,
+            per(solved.1, solved.0, 1.0, 3),
+            per(failed.1, failed.0, 1.0, 3),
+            per(solved.2 as f64, solved.0, 1.0, 0),
+            per(solved.1, solved.2, 1e3, 3),
+            solved.1 + failed.1
+        );
+    }
+    Ok(())
+}
