@@ -13,7 +13,7 @@
 //! evaluation, the final objective `g` and the comfort-range error. A fit is minutes long
 //! and deterministic, so it is timed once, not sampled.
 
-use bench::figures::yarn_fit::{DEVELOPMENT_FABRIC, fabrics, fit_one, settings};
+use bench::figures::yarn_fit::{fabrics, fit_one, select, settings};
 
 fn main() -> anyhow::Result<()> {
     // `cargo bench` passes `--bench` (and the harness options) to the binary.
@@ -22,23 +22,7 @@ fn main() -> anyhow::Result<()> {
         .filter(|a| !a.starts_with("--"))
         .collect();
     let (all, opts) = fabrics(false)?;
-    let chosen: Vec<_> = if names.iter().any(|n| n == "all") {
-        all.iter().collect()
-    } else if names.is_empty() {
-        all.iter()
-            .filter(|f| f.name == DEVELOPMENT_FABRIC)
-            .collect()
-    } else {
-        let mut chosen = Vec::new();
-        for name in &names {
-            let Some(f) = all.iter().find(|f| &f.name == name) else {
-                let known: Vec<&str> = all.iter().map(|f| f.name.as_str()).collect();
-                anyhow::bail!("no fabric {name:?}; known: {}", known.join(", "));
-            };
-            chosen.push(f);
-        }
-        chosen
-    };
+    let chosen = select(&all, &names)?;
     let settings = settings(false);
     println!(
         "yarn fit, full-mode settings, {} threads (goal: ≤ 300 s per fabric)",

@@ -29,14 +29,11 @@
 use std::time::Instant;
 
 use bench::figures::yarn_fit::{
-    DEVELOPMENT_FABRIC, fabrics, fit_geometry, pattern_of, settings, shell_targets,
+    RADIUS, fabrics, geometry_and_space, pattern_of, select, settings, shell_targets,
     with_fitted_geometry,
 };
-use sim_periodic::fit::{Objective, ParameterSpace, estimated_radius};
+use sim_periodic::fit::Objective;
 use sim_periodic::periodic::YarnModel;
-
-/// Yarn radius of the `yarn-fit` figure's tiles (m).
-const RADIUS: f64 = 1e-3;
 
 fn main() -> anyhow::Result<()> {
     // `cargo bench` passes `--bench` (and the harness options) to the binary.
@@ -57,23 +54,7 @@ fn main() -> anyhow::Result<()> {
         }
     }
     let (all, opts) = fabrics(false)?;
-    let chosen: Vec<_> = if names.iter().any(|n| n == "all") {
-        all.iter().collect()
-    } else if names.is_empty() {
-        all.iter()
-            .filter(|f| f.name == DEVELOPMENT_FABRIC)
-            .collect()
-    } else {
-        let mut chosen = Vec::new();
-        for name in &names {
-            let Some(f) = all.iter().find(|f| &f.name == name) else {
-                let known: Vec<&str> = all.iter().map(|f| f.name.as_str()).collect();
-                anyhow::bail!("no fabric {name:?}; known: {}", known.join(", "));
-            };
-            chosen.push(f);
-        }
-        chosen
-    };
+    let chosen = select(&all, &names)?;
     let swarm_objective = settings(false).swarm_objective;
     println!(
         "yarn-fit swarm objective at {points} fixed points of the box, {} threads",
@@ -95,8 +76,7 @@ fn main() -> anyhow::Result<()> {
         let targets = shell_targets(fabric, &opts)?;
         let pattern = pattern_of(&fabric.name)?;
         let base = YarnModel::default_for_radius(RADIUS);
-        let geometry = fit_geometry(pattern, RADIUS)?;
-        let space = ParameterSpace::paper(&base, estimated_radius(&geometry, &base)?)?;
+        let (geometry, space) = geometry_and_space(pattern, &base, RADIUS)?;
         let space = with_fitted_geometry(space, pattern, RADIUS)?;
         let objective = Objective {
             geometry: &geometry,

@@ -129,6 +129,29 @@ pub fn fabrics(quick: bool) -> anyhow::Result<(Vec<Fabric>, FabricFitOptions)> {
     Ok((discover(&dir, &bins)?, opts))
 }
 
+/// The fabrics of `all` named by `names` (each must be one of them; `all` in `names`: every
+/// fabric; none named: the development fabric), for the benches' command lines.
+pub fn select<'a>(all: &'a [Fabric], names: &[String]) -> anyhow::Result<Vec<&'a Fabric>> {
+    if names.iter().any(|n| n == "all") {
+        return Ok(all.iter().collect());
+    }
+    if names.is_empty() {
+        return Ok(all
+            .iter()
+            .filter(|f| f.name == DEVELOPMENT_FABRIC)
+            .collect());
+    }
+    names
+        .iter()
+        .map(|name| {
+            all.iter().find(|f| &f.name == name).ok_or_else(|| {
+                let known: Vec<&str> = all.iter().map(|f| f.name.as_str()).collect();
+                anyhow::anyhow!("no fabric {name:?}; known: {}", known.join(", "))
+            })
+        })
+        .collect()
+}
+
 /// The uniform target curves of the stiffening shell fitted to `fabric`: weft and warp over
 /// their measured ranges, bias over the smaller of the two.
 pub fn shell_targets(fabric: &Fabric, opts: &FabricFitOptions) -> anyhow::Result<Targets> {
@@ -168,7 +191,7 @@ pub fn shell_targets(fabric: &Fabric, opts: &FabricFitOptions) -> anyhow::Result
 }
 
 /// Yarn radius of the fits (m): the scale of the procedural tiles.
-const RADIUS: f64 = 1e-3;
+pub const RADIUS: f64 = 1e-3;
 
 /// Vertices per stitch loop of the fitted knit tiles (the procedural default is 24).
 ///
@@ -615,6 +638,25 @@ fn curve_charts(f: &Fitted) -> (LineChart, LineChart) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_benches_select_fabrics_by_name_and_list_the_known_ones_for_an_unknown_name() {
+        let (all, _) = fabrics(true).unwrap();
+        let names = |chosen: Vec<&Fabric>| -> Vec<String> {
+            chosen.iter().map(|f| f.name.clone()).collect()
+        };
+        assert_eq!(names(select(&all, &[]).unwrap()), [DEVELOPMENT_FABRIC]);
+        assert_eq!(select(&all, &["all".into()]).unwrap().len(), all.len());
+        let two = ["babyredo-rib".to_string(), "acrylic-yarn-seed".to_string()];
+        assert_eq!(names(select(&all, &two).unwrap()), two);
+        let e = select(&all, &["babyredo-rib".into(), "no-such-fabric".into()])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("\"no-such-fabric\"") && e.contains("acrylic-yarn-garter"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn every_pattern_gets_the_stockinette_course_height_range() {
