@@ -1,7 +1,7 @@
 //! The yarn-parameter fit (seed 002 §7) recovers known parameters from targets that
 //! `sim-periodic` generated with them.
 
-use sim_periodic::curves::CurveSettings;
+use sim_periodic::curves::{CurveSettings, uniaxial_curve};
 use sim_periodic::fit::{
     Bound, FitError, FitResult, FitSettings, Journal, LocalMethod, Objective, ObjectiveSettings,
     Parameter, ParameterSpace, Targets, estimated_radius, fit, stretched_geometry,
@@ -178,6 +178,56 @@ fn the_residual_jacobian_matches_central_differences_on_a_frozen_rest_tile() {
             column.amax()
         );
         assert!(err < 1e-6, "column {k} off by {err:e}");
+    }
+}
+
+/// A stress sample at the stretch of a compression node has the node's coarse map, so it is
+/// the node's equilibrium, bit for bit (not a second solve that lands elsewhere within the
+/// Newton tolerance); the samples between nodes take the interpolated compression.
+#[test]
+fn samples_at_compression_nodes_are_the_nodes_equilibria() {
+    let geometry = geometry();
+    let space = paper_space(&geometry);
+    let model = space.model(&[0.55, 0.35, 0.6, 0.5, 0.5]);
+    let targets = targets_of(&geometry, &model, &[(Direction::Weft, 0.3)], 4);
+    // Samples at 0, ¼, ½, ¾ and 1 of the curve; nodes at 0, ½ and 1.
+    let objective = Objective {
+        geometry: &geometry,
+        targets: &targets,
+        settings: ObjectiveSettings {
+            samples: 5,
+            compression_nodes: 3,
+            ..ObjectiveSettings::default()
+        },
+    };
+    let evaluation = objective.evaluate(&model).unwrap();
+    let (rest, _, _) = objective.rest_tile(&model).unwrap();
+    let s_max = targets.curves[&Direction::Weft].last().unwrap().s;
+    let nodes = uniaxial_curve(
+        &rest,
+        &model,
+        Direction::Weft,
+        &[0.0, s_max * 0.5, s_max],
+        &CurveSettings::default(),
+    )
+    .unwrap();
+    let samples = &evaluation.samples;
+    assert_eq!(samples.len(), 5);
+    for (sample, node) in [(0, 0), (2, 1), (4, 2)] {
+        let (sample, node) = (&samples[sample], &nodes[node]);
+        assert_eq!(sample.target.s, node.s);
+        assert_eq!(sample.c, node.c, "at s = {}", node.s);
+        assert_eq!(sample.sigma, node.sigma_s, "at s = {}", node.s);
+    }
+    for (sample, (a, b)) in [(1, (0, 1)), (3, (1, 2))] {
+        let c = 0.5 * (nodes[a].c + nodes[b].c);
+        assert!((samples[sample].c - c).abs() <= 1e-15, "sample {sample}");
+        // Between the nodes: a solve of its own, whose stress lies between theirs.
+        let sigma = samples[sample].sigma;
+        assert!(
+            nodes[a].sigma_s < sigma && sigma < nodes[b].sigma_s,
+            "sample {sample}"
+        );
     }
 }
 

@@ -15,7 +15,10 @@
 //!    the midpoint that the continuation to `s_max` solves anyway.
 //! 3. **Stress samples.** At `n` stretches evenly spaced in `[0, s_max]` (`s_max`: the target
 //!    curve's last stretch) the tile is solved under `F = (1+s) u uᵀ + (1 − c(s)) v vᵀ` and
-//!    the stretch stress `σ_s = uᵀPu` gathered (Eq. 10).
+//!    the stretch stress `σ_s = uᵀPu` gathered (Eq. 10). A sample at a node's stretch has
+//!    the node's coarse map and is the node's equilibrium, not solved again (with the
+//!    defaults 3 of the swarm's 7 samples per direction, at 0, `s_max/2` and `s_max`, and 2 of
+//!    the local search's 20).
 //!
 //! The objective (Eq. 11) sums, over those samples,
 //!
@@ -47,7 +50,11 @@
 //! one thread, 1.99 s in all): the rest shape and period 0.33 s; the 9 compression
 //! root-finds 52 solves and 290 Newton iterations (5.8 solves per node; the node at `s = 0`
 //! 4–6 solves, for a compression of 10⁻⁶–10⁻³); the 21 stress samples 198 iterations, about
-//! 3.4 ms each. The tolerances are not where the time goes (one run each, same point):
+//! 3.4 ms each. (Measured before the samples at nodes reused the nodes' equilibria, which
+//! took 11–17 % of the Newton iterations of a swarm evaluation away on every shared fabric:
+//! `cargo bench -p bench --bench yarn_objective -- all`, 10 points each, same points, e.g. the
+//! acrylic seed 651 → 574 iterations and 1.72 → 1.55 s per solved evaluation.) The
+//! tolerances are not where the time goes (one run each, same point):
 //!
 //! | change | Newton iterations | time | `g` |
 //! |---|---|---|---|
@@ -96,6 +103,13 @@ use super::targets::{TargetPoint, Targets, interpolate};
 /// Largest normal coarse stress of the rest state with [`ObjectiveSettings::stress_free_period`],
 /// as a fraction of the comfort stress.
 pub const STRESS_FREE_TOLERANCE: f64 = 1e-4;
+
+/// `i / (n − 1)`: the place of the `i`-th of `n` evenly spaced points in `[0, 1]`. Equal
+/// fractions round alike (the quotient is correctly rounded), so a stress sample and a
+/// compression node at the same fraction of the curve get the same stretch bit for bit.
+fn fraction(i: usize, n: usize) -> f64 {
+    i as f64 / (n - 1) as f64
+}
 
 /// Settings of the objective.
 #[derive(Clone, Debug)]
@@ -306,7 +320,7 @@ impl Objective<'_> {
     pub fn stretches(&self, d: Direction) -> Vec<f64> {
         let s_max = self.targets.curves[&d].last().map_or(0.0, |p| p.s);
         let n = self.settings.samples.max(2);
-        (0..n).map(|i| s_max * i as f64 / (n - 1) as f64).collect()
+        (0..n).map(|i| s_max * fraction(i, n)).collect()
     }
 
     /// The rest tile of `model` (step 1 of the module documentation) from the input geometry.
@@ -523,7 +537,7 @@ impl Objective<'_> {
             let scales = scales(curve, self.settings.comfort_stress)?;
             let s_max = curve.last().map_or(0.0, |p| p.s);
             let m = self.settings.compression_nodes;
-            let nodes: Vec<f64> = (0..m).map(|i| s_max * i as f64 / (m - 1) as f64).collect();
+            let nodes: Vec<f64> = (0..m).map(|i| s_max * fraction(i, m)).collect();
             let points = uniaxial_curve_states(&tile, model, d, &nodes, &self.settings.curve)?;
             iterations += points.iter().map(|(p, _)| p.iterations).sum::<usize>();
             let interpolation = |s: f64| {
@@ -533,24 +547,34 @@ impl Objective<'_> {
             };
             for s in self.stretches(d) {
                 let (k, t) = interpolation(s);
-                let c = points[k - 1].0.c + t * (points[k].0.c - points[k - 1].0.c);
+                // Exact at the nodes (t = 0 or 1).
+                let c = (1.0 - t) * points[k - 1].0.c + t * points[k].0.c;
                 let coarse = Coarse::uniaxial(s, c, d.angle());
-                let guess = solved
-                    .last()
-                    .map(|prev| material_warm_start(&prev.eq.dofs, &prev.eq.coarse, &coarse));
-                let eq = solve_equilibrium(
-                    &tile,
-                    model,
-                    coarse,
-                    guess.as_deref(),
-                    &self.settings.curve.equilibrium,
-                )
-                .map_err(|source| FitError::Solve {
-                    direction: d.name(),
-                    s,
-                    source,
-                })?;
-                iterations += eq.iterations;
+                // A sample at a compression node has the node's coarse map, so the node's
+                // equilibrium is its equilibrium: solving it again would only land within the
+                // Newton tolerance of the same state.
+                let eq = match nodes.iter().position(|&node| node == s) {
+                    Some(i) => points[i].1.clone(),
+                    None => {
+                        let guess = solved.last().map(|prev| {
+                            material_warm_start(&prev.eq.dofs, &prev.eq.coarse, &coarse)
+                        });
+                        let eq = solve_equilibrium(
+                            &tile,
+                            model,
+                            coarse,
+                            guess.as_deref(),
+                            &self.settings.curve.equilibrium,
+                        )
+                        .map_err(|source| FitError::Solve {
+                            direction: d.name(),
+                            s,
+                            source,
+                        })?;
+                        iterations += eq.iterations;
+                        eq
+                    }
+                };
                 let sigma = directional_stress(&eq, d.angle()).0;
                 let target = self.targets.at(d, s).expect("the direction has a curve");
                 let weight = |comfort: f64, v: f64| {
