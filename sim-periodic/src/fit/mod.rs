@@ -175,6 +175,22 @@ pub struct FitSettings {
     /// extra evaluation per geometric parameter at the start and at every accepted
     /// Levenberg–Marquardt point (rejected trial points need no Jacobian). `false` keeps them
     /// at the start (the swarm's choice). Default `true`.
+    ///
+    /// The differences are about half of the local phase's evaluations. Differencing them
+    /// less often, with Broyden's update carrying the columns in between (throw-away code,
+    /// `cargo bench -p bench --bench yarn_fit`, release, 2 cores, 2026-11-29; yarn fit time,
+    /// final `g`, comfort-range error):
+    ///
+    /// | differenced at | acrylic stockinette | babyredo stockinette | acrylic garter |
+    /// |---|---|---|---|
+    /// | every accepted point (this) | 86.6 s, 0.0731, 10.6 % | 88.8 s, 0.0755, 14.7 % | 215 s, 0.0884, 6.6 % (the committed run) |
+    /// | the start only | 63.9 s, 0.0768, 10.3 % | 69.9 s, 0.0697, 18.2 % | 159 s, 0.1063, 7.8 % |
+    /// | every 2nd accepted point | — | 60.0 s, 0.0648, 16.3 % | — |
+    /// | every 3rd accepted point | 76.1 s, 0.0694, 8.2 % | 98.4 s, 0.0692, 18.2 % | 199 s, 0.0980, 7.4 % |
+    ///
+    /// Faster by up to a third, but each variant moves the fits to other paths, `g` rose on
+    /// two of three fabrics with the start-only columns, and the comfort-range error moved
+    /// both ways by up to 3.5 points: not kept.
     pub local_geometry: bool,
 }
 
@@ -790,8 +806,13 @@ fn lm_search(
     // start spent its last 16 of 64 evaluations lowering g from 0.073147 to 0.073090 (8e-4
     // relative), the last 6 of them rejections while the damping grew, and another start crept
     // from 0.0909 to 0.0850 over 40. A stop on the decrease over several accepted steps (this
-    // `cost_rtol` tests one step) might save a fifth of the local phase; not tried, since any
-    // such change moves every fit to another path and needs a full `yarn-fit` run to judge.
+    // `cost_rtol` tests one step) or after a few rejections in a row would not be safe: traced
+    // the same way (2026-11-29), the babyredo stockinette's winning start went from g 0.080415
+    // to 0.080413 in 7 iterations, 6 of them rejections, then fell to 0.075507 (6 % lower).
+    // A stop on one accepted step's decrease at 1e-4 (that step's: 3e-5), or after 4
+    // rejections in a row, would have ended it at 0.0804; one on the decrease over two accepted
+    // steps at 1e-3 was missed by 29 % (1.29e-3). What is left to save safely is the rejections
+    // after the last accepted step: 2–8 evaluations per start.
     let lm_settings = solver::LmSettings {
         max_iterations: settings.local_evaluations,
         cost_rtol: 1e-12,

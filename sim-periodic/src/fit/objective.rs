@@ -83,6 +83,36 @@
 //! solve with `c` as one more degree of freedom instead of a root-find of about six — with
 //! the sliding rows then bilinear in `c` and the positions (their coefficients are `F n`),
 //! so no longer the linear constraints the constrained Newton solver takes.
+//!
+//! **At the swarm's own points** the objective costs about twice what it costs at uniform
+//! points of the box (the swarm's particles crowd the bounds). The acrylic seed's first 40
+//! swarm evaluations (`yarn-fit`'s settings, release, one thread, 2026-11-29, throw-away
+//! instrumentation): 4.05 s and 996 Newton iterations per solved evaluation, against 2.25 s
+//! and 574 at `yarn_objective`'s uniform points. Of the first 70 evaluations' time, the
+//! compression root-finds took about 77 %, the stress samples 15 % and the rest shape 8 %.
+//! The costly solves are the first ones at a new node's stretch, warm-started from the node
+//! before: usually 8–20 Newton iterations, with a tail of 100–312, where the secant steps
+//! after them take 1–20. In the first 30 evaluations, 22 of 2870 solve rounds (the first
+//! round of a solve, with the pairs near its start) stalled or ran to 200 iterations before
+//! the restart with the wider pair set converged in 15–24; they took 17 % of the time. What
+//! was measured against that (the same 40 points, one thread, 161 s as it is, 5 of them
+//! failing):
+//!
+//! | change (throw-away) | Newton iterations per solved evaluation | time |
+//! |---|---|---|
+//! | none | 996 | 161 s |
+//! | first round limited to 80 iterations, then the restart | 974 | 154 s |
+//! | first round limited to 40 iterations | 1016 | 182 s |
+//! | pair margin 3 instead of 1.5 (uniform points, three fabrics) | 526–558 against 530–621 | 1.6–1.9× slower |
+//! | two compression nodes (the paper's) instead of three | 752 | 138 s, 6 failing |
+//! | target compression `ĉ(s)` as each node's first guess | 970 | 178 s |
+//!
+//! None was kept: the gains are within this machine's spread or bought with failures, and
+//! each moves every fit to another path. The ceiling of the structural change above was
+//! measured too: one solve at the root's compression from the same warm start takes 45 % of
+//! the root-find's Newton iterations (12 665 against 28 273 over those points' 354
+//! root-finds), so a node solved in one Newton solve would cut an evaluation by at most
+//! about 40 %, not the 2× the seeds need to fit in 300 s.
 
 use crate::coarse::Coarse;
 use crate::curves::{CurveSettings, directional_stress, uniaxial_curve_states};
