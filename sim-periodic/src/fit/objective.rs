@@ -106,12 +106,14 @@
 //! | pair margin 3 instead of 1.5 (uniform points, three fabrics) | 526–558 against 530–621 | 1.6–1.9× slower |
 //! | two compression nodes (the paper's) instead of three | 752 | 138 s, 6 failing |
 //! | target compression `ĉ(s)` as each node's first guess | 970 | 178 s |
+//! | a solve half-way (in `s` and `c`) before each node after the first | 999 (150 of them half-way) | 173 s, 4 failing |
 //!
-//! None was kept: the gains are within this machine's spread or bought with failures, and
-//! each moves every fit to another path. The ceiling of the structural change above was
-//! measured too: one solve at the root's compression from the same warm start takes 45 % of
-//! the root-find's Newton iterations (12 665 against 28 273 over those points' 354
-//! root-finds), so a node solved in one Newton solve would cut an evaluation by at most
+//! (The unchanged code, rerun an hour later without the instrumentation: 996 iterations,
+//! 173 s.) None was kept: the gains are within this machine's spread or bought with
+//! failures, and each moves every fit to another path. The ceiling of the structural change
+//! above was measured too: one solve at the root's compression from the same warm start
+//! takes 45 % of the root-find's Newton iterations (12 665 against 28 273 over those points'
+//! 354 root-finds), so a node solved in one Newton solve would cut an evaluation by at most
 //! about 40 %, not the 2× the seeds need to fit in 300 s.
 
 use crate::coarse::Coarse;
