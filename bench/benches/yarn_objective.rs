@@ -29,11 +29,10 @@
 //! solved and failed counts): 241–258, 437–621 and 574–612 Newton iterations (11–17 % fewer
 //! on every fabric), 0.19–0.20, 0.60–0.85 and 1.55–1.57 s (release, 2 cores, 2026-11-29).
 //!
-//! Uniform points understate what a fit's swarm pays: its particles crowd the bounds, where
-//! the solves are harder. On the acrylic seed (release, one thread, 2026-11-29) the swarm's
-//! first 40 points cost 4.05 s and 996 Newton iterations per solved evaluation, these 10
-//! points 2.25 s and 574 ([`sim_periodic::fit::objective`]'s cost paragraph); the `yarn_fit`
-//! benchmark's swarm phase is the representative figure.
+//! Uniform points understate what a fit's swarm pays, about half on the acrylic seed
+//! ([`sim_periodic::fit::objective`]'s cost paragraph: after its uniform initial population
+//! the swarm's particles sit on the box's bounds, where the solves are harder); the
+//! `yarn_fit` benchmark's swarm phase is the representative figure.
 
 use std::time::Instant;
 

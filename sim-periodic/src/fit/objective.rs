@@ -85,10 +85,12 @@
 //! so no longer the linear constraints the constrained Newton solver takes.
 //!
 //! **At the swarm's own points** the objective costs about twice what it costs at uniform
-//! points of the box (the swarm's particles crowd the bounds). The acrylic seed's first 40
-//! swarm evaluations (`yarn-fit`'s settings, release, one thread, 2026-11-29, throw-away
-//! instrumentation): 4.05 s and 996 Newton iterations per solved evaluation, against 2.25 s
-//! and 574 at `yarn_objective`'s uniform points. Of the first 70 evaluations' time, the
+//! points of the box. The acrylic seed's first 40 swarm evaluations (`yarn-fit`'s settings,
+//! release, one thread, 2026-11-29, throw-away instrumentation): 4.05 s and 996 Newton
+//! iterations per solved evaluation, against 2.25 s and 574 at `yarn_objective`'s uniform
+//! points. The uniform initial population of 16 took 2.66 s per evaluation, the 24 points
+//! after it 4.87 s; 24 of the 40 have a coordinate on a bound of the box, where the swarm
+//! clamps its particles. Of the first 70 evaluations' time, the
 //! compression root-finds took about 77 %, the stress samples 15 % and the rest shape 8 %.
 //! The costly solves are the first ones at a new node's stretch, warm-started from the node
 //! before: usually 8–20 Newton iterations, with a tail of 100–312, where the secant steps
