@@ -392,13 +392,17 @@ fn store_curves<T: Real>(
     out
 }
 
-/// Tiles `tile` over `mesh` and embeds the yarn vertices (see the module docs).
+/// Tiles `tile` over `mesh` and embeds the yarn vertices (see the module docs). The tile must
+/// be rectangular ([`Tile::skew`] `= 0`).
 pub fn embed<T: Real>(
     mesh: &RestMesh,
     tile: &Tile,
     options: &EmbedOptions,
 ) -> Result<Embedding<T>> {
     let topology = tile.topology()?;
+    if tile.skew != 0.0 {
+        return Err(DeformError::SkewedTile { skew: tile.skew });
+    }
     if !(options.min_fragment_length >= 0.0 && options.min_fragment_length.is_finite()) {
         return Err(DeformError::Option {
             name: "min_fragment_length",

@@ -43,16 +43,16 @@
 //! rows of a periodic tile couple all vertices), so the method suits few or short
 //! constraint rows; its cost grows with `m` through the `m` solves for `Y`.
 //!
-//! *Dense rows, measured.* On the `yarn-fit` seed tile (64 vertices, 256 unknowns, 7 rows) the
-//! zero-mean and twist-drift rows make the factor dense (about 43 000 stored values). Yet with
-//! those rows replaced by single-entry pins (a sparse `K`, a different problem, as a timing
-//! control) a Newton iteration took 2.0 ms against 2.2 ms (a throw-away probe of the swarm
-//! objective at 10 pseudo-random points, release, 2026-11-29): the factorization is not where a
-//! periodic solve spends its time. A Woodbury treatment of the dense rows (`K` factorized
-//! without their `ρĉĉᵀ`, with `ρeeᵀ` at one pinned column each, corrected by a rank-2k
-//! capacitance whose inertia decides definiteness, falling back to `K` where the pinned matrix
-//! failed) was exact on small tests but not kept: on that tile 17 % of the factorizations fell
-//! back, one refinement step had to correct up to 3·10⁴ times the first solve (cancellation in
+//! *Dense rows, measured.* On the `yarn-fit` seed tile of then (the rectangular 2 × 2 repeat: 64
+//! vertices, 256 unknowns, 7 rows) the zero-mean and twist-drift rows make the factor dense (about
+//! 43 000 stored values). Yet with those rows replaced by single-entry pins (a sparse `K`, a
+//! different problem, as a timing control) a Newton iteration took 2.0 ms against 2.2 ms (a
+//! throw-away probe of the swarm objective at 10 pseudo-random points, release, 2026-11-29): the
+//! factorization is not where a periodic solve spends its time. A Woodbury treatment of the dense
+//! rows (`K` factorized without their `ρĉĉᵀ`, with `ρeeᵀ` at one pinned column each, corrected by a
+//! rank-2k capacitance whose inertia decides definiteness, falling back to `K` where the pinned
+//! matrix failed) was exact on small tests but not kept: on that tile 17 % of the factorizations
+//! fell back, one refinement step had to correct up to 3·10⁴ times the first solve (cancellation in
 //! the pinned matrix's soft modes), and 5 instead of 2 of the 10 evaluations failed.
 //!
 //! **Convergence** uses the Lagrangian gradient `‖g + Cᵀλ‖∞ = ‖g + Ĉᵀλ̂‖∞` (zero exactly at a

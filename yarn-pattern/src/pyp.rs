@@ -6,9 +6,9 @@
 //!
 //! | block | data lines | content |
 //! |---|---|---|
-//! | `*pattern` | 1 | `px py r n`: tile period along x and y (m), yarn radius (m), number of vertices `n` (= number of edges) |
+//! | `*pattern` | 1 | `px py r n [skew]`: tile period along x and y (m), yarn radius (m), number of vertices `n` (= number of edges), and optionally the lattice skew ([`Tile::skew`], unitless, 0 when absent; our extension, written only when non-zero) |
 //! | `*Q` | `n` | `x y z t`: vertex position (m), twist angle (rad) of the edge starting at this vertex |
-//! | `*E` | `n` | `v0 v1 dx dy`: edge from `v0` to the copy of `v1` shifted by `(dx, dy)` periods |
+//! | `*E` | `n` | `v0 v1 dx dy`: edge from `v0` to the copy of `v1` shifted by `(dx, dy)` periods (`dx a₁ + dy a₂`, [`Tile::period_offset`]) |
 //! | `*RL` | `n` | rest length (m) of the edge starting at vertex `i` (line `i`) |
 //! | `*RK` | `n` | `κ₁ κ₂`: rest curvature (material-frame components, unitless) per vertex |
 //! | `*RT` | `n` | rest twist (rad) per vertex |
@@ -106,7 +106,7 @@ impl Block {
     /// Names of the values on one data line.
     fn layout(self) -> &'static str {
         match self {
-            Block::Pattern => "px py r n",
+            Block::Pattern => "px py r n [skew]",
             Block::Q => "x y z t",
             Block::E => "v0 v1 dx dy",
             Block::RL => "length",
@@ -359,13 +359,17 @@ pub fn to_pyp_string(tile: &Tile) -> Result<String, TileError> {
     header(&mut s, Block::Pattern);
     let [px, py] = tile.period;
     let n = tile.n_vertices();
-    let _ = writeln!(
+    let _ = write!(
         s,
         "{} {} {} {n}",
         fmt_f64(px),
         fmt_f64(py),
         fmt_f64(tile.radius)
     );
+    if tile.skew != 0.0 {
+        let _ = write!(s, " {}", fmt_f64(tile.skew));
+    }
+    s.push('\n');
     header(&mut s, Block::Q);
     for (p, &t) in tile.positions.iter().zip(&tile.twists) {
         line(&mut s, &[p.x, p.y, p.z, t]);
@@ -451,7 +455,13 @@ fn parse(text: &str) -> Located<PypRead> {
         return missing(Block::Pattern);
     };
     let row = &exact_rows(pattern, 1)?[0];
-    check_width(Block::Pattern, row)?;
+    // An optional fifth number is the lattice skew (rectangular tiles omit it).
+    let skew = if row.tokens.len() == 5 {
+        number(Block::Pattern, row, 4)?
+    } else {
+        check_width(Block::Pattern, row)?;
+        0.0
+    };
     let px = number(Block::Pattern, row, 0)?;
     let py = number(Block::Pattern, row, 1)?;
     let radius = number(Block::Pattern, row, 2)?;
@@ -504,6 +514,7 @@ fn parse(text: &str) -> Located<PypRead> {
         refd1.map(|v| v.iter().map(|d| Vector3::new(d[0], d[1], d[2])).collect());
     let mut tile = Tile {
         period: [px, py],
+        skew,
         radius,
         positions: q.iter().map(|v| Vector3::new(v[0], v[1], v[2])).collect(),
         twists: q.iter().map(|v| v[3]).collect(),

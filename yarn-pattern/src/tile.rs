@@ -2,8 +2,9 @@
 //! one period of a fabric (seed 002 §7.1, seed 004 §3).
 //!
 //! A tile has `n` vertices and `n` edges. Edge `e` runs from vertex `v0` to the copy of vertex
-//! `v1` shifted by `shift · period`, so a yarn that leaves the tile through one side re-enters
-//! through the opposite side. Every vertex starts exactly one edge and ends exactly one edge,
+//! `v1` shifted by `shift[0] · a₁ + shift[1] · a₂`, the tile's periods ([`Tile::period_offset`]:
+//! `a₁ = (px, 0)`, `a₂ = (skew · px, py)`, rectangular when `skew = 0`), so a yarn that leaves
+//! the tile through one side re-enters through the opposite side. Every vertex starts exactly one edge and ends exactly one edge,
 //! so the edges form closed periodic yarn loops ([`Topology::loops`]).
 //!
 //! Edges are stored in file order: edge `e` does **not** necessarily start at vertex `e`
@@ -21,8 +22,8 @@ pub struct Edge {
     pub v0: usize,
     /// End vertex (before the shift).
     pub v1: usize,
-    /// The edge ends at the copy of `v1` shifted by `shift[0] · px` along x and
-    /// `shift[1] · py` along y (integer numbers of periods).
+    /// The edge ends at the copy of `v1` shifted by `shift[0] · a₁ + shift[1] · a₂` (integer
+    /// numbers of periods, [`Tile::period_offset`]).
     pub shift: [i32; 2],
 }
 
@@ -34,6 +35,14 @@ pub struct Edge {
 pub struct Tile {
     /// Tile period `[px, py]` along x and y (m).
     pub period: [f64; 2],
+    /// Lattice skew (unitless): the tile's periods are `a₁ = (px, 0)` and
+    /// `a₂ = (skew · px, py)`. Zero for a rectangular tile; a sheared lattice holds a
+    /// pattern's primitive repeat when the rectangular one is larger (the seed stitch repeats
+    /// after one loop sideways and one course up: `skew = ½` on a tile of two loops, half the
+    /// vertices of its 2 × 2 rectangular repeat). In `[−½, ½]`, so the 3 × 3 periodic images
+    /// around the tile still hold its nearest neighbours. Scaling `px` scales `a₂`'s x
+    /// component with it.
+    pub skew: f64,
     /// Yarn radius (m).
     pub radius: f64,
     /// Rest vertex positions `X` (m), per vertex.
@@ -81,6 +90,12 @@ pub enum TileError {
     NonPositive {
         /// `"period[0]"`, `"period[1]"` or `"radius"`.
         field: &'static str,
+        /// The offending value.
+        value: f64,
+    },
+    /// The lattice skew is not a finite number in `[−½, ½]`.
+    #[error("skew must be a finite number in [-0.5, 0.5], found {value}")]
+    Skew {
         /// The offending value.
         value: f64,
     },
@@ -153,6 +168,7 @@ impl TileError {
         match *self {
             Self::Empty => None,
             Self::LengthMismatch { field, .. } | Self::NonPositive { field, .. } => at(field, None),
+            Self::Skew { .. } => at("skew", None),
             Self::NonFinite { field, index } => at(field, Some(index)),
             Self::VertexOutOfRange { edge, .. } => at("edges", Some(edge)),
             Self::TwoOutgoing { second, .. } | Self::TwoIncoming { second, .. } => {
@@ -245,7 +261,7 @@ impl Tile {
     /// Checks that the tile is consistent: `n ≥ 1`; every array has `n` entries; period and
     /// radius are positive and finite; all numbers are finite; edge vertex indices are in
     /// range; every vertex starts exactly one edge and ends exactly one edge; rest lengths
-    /// are positive.
+    /// are positive; the skew is in `[−½, ½]`.
     pub fn validate(&self) -> Result<(), TileError> {
         let n = self.n_vertices();
         if n == 0 {
@@ -277,6 +293,9 @@ impl Tile {
             if !(value.is_finite() && value > 0.0) {
                 return Err(TileError::NonPositive { field, value });
             }
+        }
+        if self.skew.is_nan() || self.skew.abs() > 0.5 {
+            return Err(TileError::Skew { value: self.skew });
         }
         check_finite(
             "positions",
@@ -352,18 +371,14 @@ impl Tile {
     }
 
     /// The translation (m) of the periodic copy shifted by `shift` periods:
-    /// `shift[0] · px · e₁ + shift[1] · py · e₂`.
+    /// `shift[0] · a₁ + shift[1] · a₂ = ((shift[0] + skew · shift[1]) · px, shift[1] · py, 0)`.
     pub fn period_offset(&self, shift: [i32; 2]) -> Vector3<f64> {
-        Vector3::new(
-            f64::from(shift[0]) * self.period[0],
-            f64::from(shift[1]) * self.period[1],
-            0.0,
-        )
+        lattice_offset(self.period, self.skew, shift)
     }
 
     /// Rest position (m) of the end of edge `e`, including the periodic shift:
-    /// `X_v1 + shift.x · px · e₁ + shift.y · py · e₂`. Panics if `e` or its vertices are out
-    /// of range (not the case for a validated tile).
+    /// `X_v1 + shift.x · a₁ + shift.y · a₂` ([`Tile::period_offset`]). Panics if `e` or its
+    /// vertices are out of range (not the case for a validated tile).
     pub fn edge_end_shifted(&self, e: usize) -> Vector3<f64> {
         let edge = self.edges[e];
         self.positions[edge.v1] + self.period_offset(edge.shift)
@@ -374,6 +389,13 @@ impl Tile {
     pub fn edge_vector(&self, e: usize) -> Vector3<f64> {
         self.edge_end_shifted(e) - self.positions[self.edges[e].v0]
     }
+}
+
+/// The translation (m) `shift[0] · a₁ + shift[1] · a₂` of the lattice with periods `period`
+/// and skew `skew` (see [`Tile::skew`]), for code that builds a tile.
+pub fn lattice_offset(period: [f64; 2], skew: f64, shift: [i32; 2]) -> Vector3<f64> {
+    let [sx, sy] = shift.map(f64::from);
+    Vector3::new((sx + skew * sy) * period[0], sy * period[1], 0.0)
 }
 
 /// `NonFinite` error for the first entry of `field` whose `ok` flag is false.

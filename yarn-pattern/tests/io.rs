@@ -802,3 +802,41 @@ fn invalid_databases_are_not_written() {
         "{err}"
     );
 }
+
+/// The optional fifth number of `*pattern` is the lattice skew: written only when non-zero
+/// (rectangular files keep the original layout), read back bit for bit, and checked.
+#[test]
+fn lattice_skew_round_trips_and_is_checked() {
+    let mut tile = read_pyp(STOCKINETTE).unwrap().tile;
+    assert_eq!(tile.skew, 0.0);
+    let pattern_line = |text: &str| text.lines().nth(1).unwrap().to_string();
+    assert_eq!(
+        pattern_line(&to_pyp_string(&tile).unwrap())
+            .split_whitespace()
+            .count(),
+        4
+    );
+    tile.skew = 0.5;
+    // The sheared lattice moves the second period: a₂ = (px / 2, py).
+    let a2 = tile.period_offset([0, 1]);
+    assert_eq!([a2.x, a2.y], [0.5 * tile.period[0], tile.period[1]]);
+    let text = to_pyp_string(&tile).unwrap();
+    assert!(pattern_line(&text).ends_with(" 0.5"), "{text}");
+    assert_eq!(parse_pyp(&text, "skewed.pyp").unwrap().tile, tile);
+
+    // A skew outside [-1/2, 1/2] or not a number is a located error on the *pattern line.
+    let text = edited(|l| l[1] = format!("{} 0.75", l[1]));
+    let msg = parse_error(&text, 2);
+    assert!(msg.contains("skew") && msg.contains("0.75"), "{msg}");
+    let text = edited(|l| l[1] = format!("{} half", l[1]));
+    let msg = parse_error(&text, 2);
+    assert!(msg.contains("\"half\""), "{msg}");
+    let text = edited(|l| l[1] = format!("{} 0 0", l[1]));
+    let msg = parse_error(&text, 2);
+    assert!(msg.contains("px py r n [skew]"), "{msg}");
+    tile.skew = f64::NAN;
+    assert!(matches!(
+        to_pyp_string(&tile).unwrap_err(),
+        TileError::Skew { .. }
+    ));
+}

@@ -45,16 +45,17 @@
 //! mean absolute stress error over the comfort-range samples, relative to the largest target
 //! stress in the comfort range of the sample's direction.
 //!
-//! **Cost.** An evaluation is about 80 equilibrium solves. On the acrylic seed at its fitted
-//! point (64-vertex tile, 256 DOFs; the swarm's settings, 7 samples and 3 × 3 nodes; release,
-//! one thread, 1.99 s in all): the rest shape and period 0.33 s; the 9 compression
-//! root-finds 52 solves and 290 Newton iterations (5.8 solves per node; the node at `s = 0`
-//! 4–6 solves, for a compression of 10⁻⁶–10⁻³); the 21 stress samples 198 iterations, about
-//! 3.4 ms each. (Measured before the samples at nodes reused the nodes' equilibria, which
-//! took 11–17 % of the Newton iterations of a swarm evaluation away on every shared fabric:
-//! `cargo bench -p bench --bench yarn_objective -- all`, 10 points each, same points, e.g. the
-//! acrylic seed 651 → 574 iterations and 1.72 → 1.55 s per solved evaluation.) The
-//! tolerances are not where the time goes (one run each, same point):
+//! **Cost.** An evaluation is about 80 equilibrium solves. On the acrylic seed at its fitted point
+//! (its rectangular 2 × 2 tile, used until the fits moved to the 32-vertex primitive tile, see *The
+//! seed's primitive tile* below: 64 vertices, 256 DOFs; the swarm's settings, 7 samples and 3 × 3
+//! nodes; release, one thread, 1.99 s in all): the rest shape and period 0.33 s; the 9 compression
+//! root-finds 52 solves and 290 Newton iterations (5.8 solves per node; the node at `s = 0` 4–6
+//! solves, for a compression of 10⁻⁶–10⁻³); the 21 stress samples 198 iterations, about 3.4 ms
+//! each. (Measured before the samples at nodes reused the nodes' equilibria, which took 11–17 % of
+//! the Newton iterations of a swarm evaluation away on every shared fabric: `cargo bench -p bench
+//! --bench yarn_objective -- all`, 10 points each, same points, e.g. the acrylic seed 651 → 574
+//! iterations and 1.72 → 1.55 s per solved evaluation.) The tolerances are not where the time goes
+//! (one run each, same point):
 //!
 //! | change | Newton iterations | time | `g` |
 //! |---|---|---|---|
@@ -116,7 +117,19 @@
 //! above was measured too: one solve at the root's compression from the same warm start
 //! takes 45 % of the root-find's Newton iterations (12 665 against 28 273 over those points'
 //! 354 root-finds), so a node solved in one Newton solve would cut an evaluation by at most
-//! about 40 %, not the 2× the seeds need to fit in 300 s.
+//! about 40 %, not the 2× the seeds need to fit in 300 s. (All of this paragraph was
+//! measured on the seed's rectangular 2 × 2 tile.)
+//!
+//! **The seed's primitive tile.** The seed stitch repeats after one loop sideways and one
+//! course up, so its primitive tile holds two loops on a sheared lattice
+//! ([`crate::patterns::Pattern::Seed`]), half the vertices of the 2 × 2 tile the fits used
+//! before. At `yarn_objective`'s 10 fixed points (2 threads, 2026-11-29, both tiles in the
+//! same hour): acrylic seed 1.72 → 0.70 s per solved evaluation (574 → 474 Newton
+//! iterations, 2.99 → 1.47 ms each, failed evaluations 1 → 0), babyredo seed 1.65 → 0.75 s
+//! (612 → 524, 2.69 → 1.43 ms, 1 → 0). Whole fits (`yarn_fit` benchmark, same day): acrylic
+//! seed 389 s (112 + 219 evaluations, `g` 0.0388, comfort-range error 4.8 %), babyredo seed
+//! 320 s (112 + 198, 0.0815, 13.0 %), against 603 and 535 s (`g` 0.0393 and 0.248, 5.2 and
+//! 18.5 %) in the committed run of 99f8199 on the rectangular tile, another session.
 
 use crate::coarse::Coarse;
 use crate::curves::{CurveSettings, directional_stress, uniaxial_curve_states};

@@ -6,10 +6,11 @@ use nalgebra::{SVector, Vector2, Vector3};
 use rod::geometry::{Frame, reference_twist};
 use rod::material_bending::MaterialBending;
 use rod::twist::Twist;
-use yarn_pattern::tile::{Edge, Tile};
+use yarn_pattern::tile::{Edge, Tile, lattice_offset};
 
 /// One closed periodic yarn: `points` in unwrapped coordinates (m); after the last point the
-/// yarn continues to `points[0]` shifted by `shift` periods.
+/// yarn continues to `points[0]` shifted by `shift` periods (`shift[0] a₁ + shift[1] a₂`,
+/// [`Tile::period_offset`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Yarn {
     /// Centre-line points (m), at least 2 (3 with a zero shift).
@@ -24,13 +25,22 @@ fn cell(x: f64, p: f64) -> i32 {
     ((x + 0.5 * p) / p).floor() as i32
 }
 
-/// Builds a tile from periodic yarn polylines; see the [module documentation](super) for the
-/// rest shape and frames. Vertices are numbered yarn by yarn in point order, edge `e` starts at
-/// vertex `e`. Errors on a non-positive period or radius, non-finite points, a yarn with too
+/// Lattice cell `[i, j]` of point `p` for periods `a₁ = (px, 0)`, `a₂ = (skew px, py)`: the
+/// course band `j` first, then the cell along it.
+fn lattice_cell(p: &Vector3<f64>, period: [f64; 2], skew: f64) -> [i32; 2] {
+    let j = cell(p.y, period[1]);
+    [cell(p.x - skew * f64::from(j) * period[0], period[0]), j]
+}
+
+/// Builds a tile of periods `period` and lattice skew `skew` ([`Tile::skew`]) from periodic
+/// yarn polylines; see the [module documentation](super) for the rest shape and frames.
+/// Vertices are numbered yarn by yarn in point order, edge `e` starts at vertex `e`. Errors on a
+/// non-positive period or radius, a skew outside `[−½, ½]`, non-finite points, a yarn with too
 /// few points, a zero-length edge or a yarn closing on itself with a zero shift and fewer than
 /// 3 points.
 pub fn tile_from_yarns(
     period: [f64; 2],
+    skew: f64,
     radius: f64,
     yarns: &[Yarn],
 ) -> Result<Tile, PatternError> {
@@ -44,6 +54,11 @@ pub fn tile_from_yarns(
                 "{name} must be positive and finite, found {v}"
             )));
         }
+    }
+    if skew.is_nan() || skew.abs() > 0.5 {
+        return Err(PatternError::Invalid(format!(
+            "skew must be a finite number in [-0.5, 0.5], found {skew}"
+        )));
     }
     if yarns.is_empty() {
         return Err(PatternError::Invalid("no yarns given".into()));
@@ -68,17 +83,11 @@ pub fn tile_from_yarns(
                 "point {k} of yarn {y} is not finite"
             )));
         }
-        let offset = |s: [i32; 2]| {
-            Vector3::new(
-                f64::from(s[0]) * period[0],
-                f64::from(s[1]) * period[1],
-                0.0,
-            )
-        };
+        let offset = |s: [i32; 2]| lattice_offset(period, skew, s);
         let cells: Vec<[i32; 2]> = yarn
             .points
             .iter()
-            .map(|p| [cell(p.x, period[0]), cell(p.y, period[1])])
+            .map(|p| lattice_cell(p, period, skew))
             .collect();
         let base = positions.len();
         let mut frame: Option<Frame> = None;
@@ -117,6 +126,7 @@ pub fn tile_from_yarns(
     let n = positions.len();
     let mut tile = Tile {
         period,
+        skew,
         radius,
         positions,
         twists: vec![0.0; n],

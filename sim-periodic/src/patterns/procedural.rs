@@ -17,7 +17,9 @@ pub enum Pattern {
     Rib1x1,
     /// 2×2 rib (two knit, two purl wales), 4 × 1.
     Rib2x2,
-    /// Seed (knit and purl alternating in both directions), 2 × 2.
+    /// Seed (knit and purl alternating in both directions): its primitive repeat, 2 × 1 on a
+    /// lattice sheared by one loop per course ([`Tile::skew`] `= ½`); the rectangular 2 × 2
+    /// repeat is [`Pattern::generate_rectangular`].
     Seed,
     /// Plain weave, 2 warp × 2 weft.
     PlainWeave,
@@ -106,8 +108,8 @@ impl Pattern {
         }
     }
 
-    /// The repeat a tile of the pattern holds, `[along x, along y]`: loops per course and
-    /// courses of a knit, warps and wefts of a weave.
+    /// The repeat a tile of the pattern ([`Pattern::generate`]) holds, `[along x, along y]`:
+    /// loops per course and courses of a knit, warps and wefts of a weave.
     pub fn repeat(self) -> [usize; 2] {
         if self.is_knit() {
             let stitches = self.stitches();
@@ -118,15 +120,47 @@ impl Pattern {
         }
     }
 
-    /// Stitch types (`+1` knit, `−1` purl) by course, for knits.
+    /// Stitch types (`+1` knit, `−1` purl) by course, for knits: the primitive repeat, whose
+    /// course `rows` is course 0 moved by [`Pattern::course_shift`] loops.
     fn stitches(self) -> Vec<Vec<i8>> {
         match self {
             Pattern::Stockinette => vec![vec![1]],
             Pattern::Garter => vec![vec![1], vec![-1]],
             Pattern::Rib1x1 => vec![vec![1, -1]],
             Pattern::Rib2x2 => vec![vec![1, 1, -1, -1]],
-            Pattern::Seed => vec![vec![1, -1], vec![-1, 1]],
+            Pattern::Seed => vec![vec![1, -1]],
             _ => vec![],
+        }
+    }
+
+    /// Loops by which the stitch chart moves along the course from one repeat of
+    /// [`Pattern::stitches`] to the next one up: the knit tile's second period is
+    /// `a₂ = (course_shift · w, rows · s)`. Zero for rectangular repeats and weaves.
+    fn course_shift(self) -> usize {
+        match self {
+            Pattern::Seed => 1,
+            _ => 0,
+        }
+    }
+
+    /// The stitch chart unrolled onto its rectangular repeat: courses of the primitive repeat
+    /// stacked, each moved by [`Pattern::course_shift`], until the shift is a whole number of
+    /// repeats along the course.
+    fn rectangular_stitches(self) -> Vec<Vec<i8>> {
+        let types = self.stitches();
+        let cols = types[0].len();
+        let mut rows = Vec::new();
+        let mut moved = 0;
+        loop {
+            rows.extend(types.iter().map(|course| {
+                (0..cols)
+                    .map(|i| course[(i + cols - moved) % cols])
+                    .collect::<Vec<_>>()
+            }));
+            moved = (moved + self.course_shift()) % cols;
+            if moved == 0 {
+                return rows;
+            }
         }
     }
 
@@ -158,8 +192,18 @@ impl Pattern {
         }
     }
 
-    /// The period and yarn polylines of the geometric guess (see the module documentation).
-    pub fn yarns(self, params: &PatternParams) -> Result<([f64; 2], Vec<Yarn>), PatternError> {
+    /// The lattice (period and [`Tile::skew`]) and yarn polylines of the geometric guess (see
+    /// the module documentation).
+    pub fn yarns(self, params: &PatternParams) -> Result<(Lattice, Vec<Yarn>), PatternError> {
+        self.yarns_of(params, false)
+    }
+
+    /// [`Pattern::yarns`] of the primitive repeat, or of the rectangular one.
+    fn yarns_of(
+        self,
+        params: &PatternParams,
+        rectangular: bool,
+    ) -> Result<(Lattice, Vec<Yarn>), PatternError> {
         let PatternParams {
             radius,
             spacing,
@@ -182,39 +226,62 @@ impl Pattern {
                     "knit resolution must be at least 8 vertices per loop, found {resolution}"
                 )));
             }
-            Ok(knit_yarns(&self.stitches(), radius, spacing, resolution))
+            Ok(if rectangular {
+                knit_yarns(&self.rectangular_stitches(), 0, radius, spacing, resolution)
+            } else {
+                let shift = self.course_shift();
+                knit_yarns(&self.stitches(), shift, radius, spacing, resolution)
+            })
         } else {
             if resolution < 2 {
                 return Err(PatternError::Invalid(format!(
                     "weave resolution must be at least 2 vertices per crossing, found {resolution}"
                 )));
             }
-            Ok(weave_yarns(
-                &self.interlacing(),
-                radius,
-                spacing,
-                resolution,
-            ))
+            let (period, yarns) = weave_yarns(&self.interlacing(), radius, spacing, resolution);
+            Ok((Lattice { period, skew: 0.0 }, yarns))
         }
     }
 
-    /// The geometric initial guess as a tile whose rest shape is its own geometry.
+    /// The geometric initial guess as a tile whose rest shape is its own geometry, on the
+    /// pattern's primitive repeat ([`Pattern::repeat`]; sheared for the seed stitch).
     pub fn generate(self, params: &PatternParams) -> Result<Tile, PatternError> {
-        let (period, yarns) = self.yarns(params)?;
-        tile_from_yarns(period, params.radius, &yarns)
+        let (lattice, yarns) = self.yarns(params)?;
+        tile_from_yarns(lattice.period, lattice.skew, params.radius, &yarns)
+    }
+
+    /// [`Pattern::generate`] on the pattern's rectangular repeat (`skew = 0`): the same tile
+    /// where the primitive repeat is rectangular, the 2 × 2 repeat of the seed stitch (twice
+    /// the vertices of its primitive tile). For code that needs rectangular tiles, such as the
+    /// deformer's UV grid, and to check a sheared tile against its rectangular repeat.
+    pub fn generate_rectangular(self, params: &PatternParams) -> Result<Tile, PatternError> {
+        let (lattice, yarns) = self.yarns_of(params, true)?;
+        tile_from_yarns(lattice.period, lattice.skew, params.radius, &yarns)
     }
 }
 
-/// Knit yarns for stitch types `types[course][wale]`; see the module documentation.
+/// The periods `[px, py]` (m) and skew ([`Tile::skew`]) of a procedural tile.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lattice {
+    /// Periods along x and y (m).
+    pub period: [f64; 2],
+    /// Lattice skew (unitless): the second period is `(skew · px, py)`.
+    pub skew: f64,
+}
+
+/// Knit yarns for stitch types `types[course][wale]` whose repeat moves by `course_shift`
+/// loops from one repeat up to the next; see the module documentation.
 fn knit_yarns(
     types: &[Vec<i8>],
+    course_shift: usize,
     radius: f64,
     [w, s]: [f64; 2],
     per_loop: usize,
-) -> ([f64; 2], Vec<Yarn>) {
+) -> (Lattice, Vec<Yarn>) {
     let rows = types.len();
     let cols = types[0].len();
     let period = [cols as f64 * w, rows as f64 * s];
+    let skew = course_shift as f64 / cols as f64;
     let h = 0.5 * s + 1.3 * radius;
     let z_amp = 1.25 * radius;
     let a = 0.25 * w;
@@ -226,7 +293,13 @@ fn knit_yarns(
         for i in 0..cols {
             let x_c = (i as f64 + 0.5) * w - 0.5 * period[0];
             let sigma = f64::from(types[j][i]);
-            let up = types[(j + 1) % rows][i];
+            // The loop above: in the next course, or in course 0 of the repeat above, which
+            // is moved by course_shift loops.
+            let up = if j + 1 < rows {
+                types[j + 1][i]
+            } else {
+                types[0][(i + cols - course_shift % cols) % cols]
+            };
             let left = types[j][(i + cols - 1) % cols];
             let right = types[j][(i + 1) % cols];
             for k in 0..per_loop {
@@ -255,7 +328,7 @@ fn knit_yarns(
             shift: [1, 0],
         });
     }
-    (period, yarns)
+    (Lattice { period, skew }, yarns)
 }
 
 /// Smooth (C¹) interpolation of crossing values `m[k]` at `u = k + ½` along a periodic yarn

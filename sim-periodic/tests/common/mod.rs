@@ -116,15 +116,27 @@ pub fn repeated(tile: &Tile, k: i32) -> Tile {
             }
         }
     }
-    let times = |v: &Vec<f64>| v.repeat((k * k) as usize);
+    with_copies(big, tile, positions, edges, (k * k) as usize)
+}
+
+/// `big` with the copied `positions` and `edges`, and every per-vertex and per-edge array of
+/// `tile` repeated for its `copies` copies (copy `c` of vertex `v` is vertex `v + c n`),
+/// validated.
+fn with_copies(
+    mut big: Tile,
+    tile: &Tile,
+    positions: Vec<nalgebra::Vector3<f64>>,
+    edges: Vec<yarn_pattern::tile::Edge>,
+    copies: usize,
+) -> Tile {
     big.positions = positions;
     big.edges = edges;
-    big.twists = times(&tile.twists);
-    big.rest_lengths = times(&tile.rest_lengths);
-    big.rest_twists = times(&tile.rest_twists);
-    big.reference_twists = times(&tile.reference_twists);
-    big.rest_curvatures = tile.rest_curvatures.repeat((k * k) as usize);
-    big.reference_directors = tile.reference_directors.repeat((k * k) as usize);
+    big.twists = tile.twists.repeat(copies);
+    big.rest_lengths = tile.rest_lengths.repeat(copies);
+    big.rest_twists = tile.rest_twists.repeat(copies);
+    big.reference_twists = tile.reference_twists.repeat(copies);
+    big.rest_curvatures = tile.rest_curvatures.repeat(copies);
+    big.reference_directors = tile.reference_directors.repeat(copies);
     big.validate().unwrap();
     big
 }
@@ -179,4 +191,33 @@ pub fn targets_of(
         );
     }
     targets
+}
+
+/// The rectangular repeat of a tile with lattice skew ½ as one periodic tile: copies `c = 0, 1`
+/// of every vertex at `X + c a₂` (copy `c` of vertex `v` is vertex `v + c n`), periods
+/// `A₁ = a₁`, `A₂ = 2 a₂ − a₁ = (0, 2 p_y)`. An edge of copy `c` with shift `(dx, dy)` ends at
+/// `X_v1 + (c + dy) a₂ + dx a₁`; writing `c + dy = c' + 2m` (`c' ∈ {0, 1}`) and
+/// `2 a₂ = A₂ + a₁`, that is copy `c'` of `v1` shifted by `(dx + m, m)`.
+pub fn rectangular_of_half_skew(tile: &Tile) -> Tile {
+    assert_eq!(tile.skew, 0.5, "expected a tile with lattice skew ½");
+    let n = tile.n_vertices();
+    let mut big = tile.clone();
+    big.skew = 0.0;
+    big.period = [tile.period[0], 2.0 * tile.period[1]];
+    let (mut positions, mut edges) = (vec![], vec![]);
+    for c in 0..2 {
+        for v in 0..n {
+            positions.push(tile.positions[v] + tile.period_offset([0, c]));
+        }
+        for e in &tile.edges {
+            let t = c + e.shift[1];
+            let (copy, m) = (t.rem_euclid(2), t.div_euclid(2));
+            edges.push(yarn_pattern::tile::Edge {
+                v0: e.v0 + n * c as usize,
+                v1: e.v1 + n * copy as usize,
+                shift: [e.shift[0] + m, m],
+            });
+        }
+    }
+    with_copies(big, tile, positions, edges, 2)
 }
