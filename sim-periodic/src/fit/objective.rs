@@ -126,10 +126,11 @@
 //! before. At `yarn_objective`'s 10 fixed points (2 threads, 2026-11-29, both tiles in the
 //! same hour): acrylic seed 1.72 → 0.70 s per solved evaluation (574 → 474 Newton
 //! iterations, 2.99 → 1.47 ms each, failed evaluations 1 → 0), babyredo seed 1.65 → 0.75 s
-//! (612 → 524, 2.69 → 1.43 ms, 1 → 0). Whole fits (`yarn_fit` benchmark, same day): acrylic
-//! seed 389 s (112 + 219 evaluations, `g` 0.0388, comfort-range error 4.8 %), babyredo seed
-//! 320 s (112 + 198, 0.0815, 13.0 %), against 603 and 535 s (`g` 0.0393 and 0.248, 5.2 and
-//! 18.5 %) in the committed run of 99f8199 on the rectangular tile, another session.
+//! (612 → 524, 2.69 → 1.43 ms, 1 → 0). Whole fits, `yarn-fit`'s full run against the one
+//! before (99f8199, another session): acrylic seed 603 → 360 s (112 + 183 → 112 + 219
+//! evaluations, `g` 0.0393 → 0.0388, comfort-range error 5.2 → 4.8 %), babyredo seed
+//! 535 → 305 s (112 + 81 → 112 + 198, 0.248 → 0.0815, 18.5 → 13.0 %); the six other fabrics
+//! kept their fits bit for bit and took 2–13 % longer than in that run, the machine's drift.
 
 use crate::coarse::Coarse;
 use crate::curves::{CurveSettings, directional_stress, uniaxial_curve_states};
