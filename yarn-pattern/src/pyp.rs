@@ -27,7 +27,7 @@
 //! `*pattern`, `*Q` and `*E` are required. A missing optional block is filled with a computed
 //! default and listed in [`PypRead::defaulted`]:
 //!
-//! - `*RL`: the rest edge length `|X_v1 + shift·period − X_v0|` from `*Q` and `*E`;
+//! - `*RL`: the rest edge length `|X_v1 + dx a₁ + dy a₂ − X_v0|` from `*Q` and `*E`;
 //! - `*RK`: `(0, 0)`; `*RT`: 0; `*RefT`: 0;
 //! - `*RefD1`: a unit vector orthogonal to the rest edge (the coordinate axis least aligned
 //!   with the edge, made orthogonal to it).

@@ -4,8 +4,9 @@
 //! A tile has `n` vertices and `n` edges. Edge `e` runs from vertex `v0` to the copy of vertex
 //! `v1` shifted by `shift[0] · a₁ + shift[1] · a₂`, the tile's periods ([`Tile::period_offset`]:
 //! `a₁ = (px, 0)`, `a₂ = (skew · px, py)`, rectangular when `skew = 0`), so a yarn that leaves
-//! the tile through one side re-enters through the opposite side. Every vertex starts exactly one edge and ends exactly one edge,
-//! so the edges form closed periodic yarn loops ([`Topology::loops`]).
+//! the tile through one side re-enters through the opposite side. Every vertex starts exactly
+//! one edge and ends exactly one edge, so the edges form closed periodic yarn loops
+//! ([`Topology::loops`]).
 //!
 //! Edges are stored in file order: edge `e` does **not** necessarily start at vertex `e`
 //! (in the stockinette tile, edge 0 is `49 → 0 + (1, 0)`). Always use [`Edge::v0`] /
