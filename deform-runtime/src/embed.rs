@@ -1,9 +1,10 @@
 //! Precompute: tile the pattern over the mesh's UV space and embed every yarn vertex in a
 //! triangle (paper 004 §4, "As a precomputation ...").
 //!
-//! 1. A background grid in UV space with cells of the pattern period `(px, py)`; every cell
-//!    overlapping the bounding box of a UV triangle receives a copy of the tile (shifted by
-//!    integer periods).
+//! 1. A background grid in UV space with cells of the pattern's periods `a₁ = (px, 0)`,
+//!    `a₂ = (skew · px, py)` (rows of rectangles, each row moved by `skew · px` against the one
+//!    below on a sheared lattice, [`Tile::skew`]); every cell overlapping the bounding box of a
+//!    UV triangle receives a copy of the tile (shifted by integer periods).
 //! 2. Each copied vertex is located in the UV mesh (bucketed by the same grid); vertices in
 //!    no triangle are cut.
 //! 3. Yarns are followed through the periodic edges (`v0 → v1` shifted by the edge's period
@@ -116,6 +117,8 @@ const NONE: u32 = u32::MAX;
 struct CellGrid {
     /// Pattern period `[px, py]` (m).
     period: [f64; 2],
+    /// Lattice skew of the pattern ([`Tile::skew`]).
+    skew: f64,
     /// Tile vertices per cell.
     n: usize,
     /// Cell `(i, j)` → its index in `cells`.
@@ -148,13 +151,16 @@ impl CellGrid {
                 uv.iter().map(|x| x[1]).fold(f64::INFINITY, f64::min),
                 uv.iter().map(|x| x[1]).fold(f64::NEG_INFINITY, f64::max),
             );
-            let (i0, i1, j0, j1) = (
-                cell_of(u0, px),
-                cell_of(u1, px),
-                cell_of(v0, py),
-                cell_of(v1, py),
-            );
-            let area = ((i1 - i0 + 1) as u64).saturating_mul((j1 - j0 + 1) as u64);
+            let (j0, j1) = (cell_of(v0, py), cell_of(v1, py));
+            // Row j of cells starts at skew · px · j: the cells of each row over [u0, u1].
+            let row = |j: i64| {
+                let start = tile.skew * px * j as f64;
+                (cell_of(u0 - start, px), cell_of(u1 - start, px))
+            };
+            let area = (j0..=j1).fold(0u64, |a, j| {
+                let (i0, i1) = row(j);
+                a.saturating_add((i1 - i0 + 1) as u64)
+            });
             if area.saturating_mul(n as u64) > options.max_candidates {
                 return Err(DeformError::Option {
                     name: "uv_scale",
@@ -164,8 +170,15 @@ impl CellGrid {
                     ),
                 });
             }
-            for i in i0..=i1 {
-                for j in j0..=j1 {
+            // Columns outer, rows inner (the order of the rectangular grid's cells, which
+            // numbers the candidates), each row's own columns only.
+            let (i_min, i_max) = (j0..=j1)
+                .map(row)
+                .fold((i64::MAX, i64::MIN), |(a, b), (i0, i1)| {
+                    (a.min(i0), b.max(i1))
+                });
+            for i in i_min..=i_max {
+                for j in (j0..=j1).filter(|&j| (row(j).0..=row(j).1).contains(&i)) {
                     let next = cells.len() as u32;
                     let c = *cell_index.entry((i, j)).or_insert_with(|| {
                         cells.push((i, j));
@@ -196,12 +209,26 @@ impl CellGrid {
         }
         Ok(Self {
             period: tile.period,
+            skew: tile.skew,
             n,
             cell_index,
             cells,
             bucket_pairs,
             bucket_offsets,
         })
+    }
+
+    /// The cell `(i, j)` holding the UV point `(u, w)`: its row first, then the cell along it.
+    fn cell_at(&self, u: f64, w: f64) -> (i64, i64) {
+        let [px, py] = self.period;
+        let j = cell_of(w, py);
+        (cell_of(u - self.skew * px * j as f64, px), j)
+    }
+
+    /// The UV translation (m) of the tile copy in cell `(i, j)`: `i a₁ + j a₂`.
+    fn copy_offset(&self, (i, j): (i64, i64)) -> [f64; 2] {
+        let [px, py] = self.period;
+        [(i as f64 + self.skew * j as f64) * px, j as f64 * py]
     }
 
     /// Number of candidate vertices (cells × tile vertices).
@@ -212,9 +239,8 @@ impl CellGrid {
     /// The triangle of the cell's bucket containing the UV point `(u, w)` (within `1e-12` in
     /// barycentrics) and the point's UV offset from the triangle's first corner.
     fn locate(&self, mesh: &RestMesh, u: f64, w: f64) -> Option<(u32, [f64; 2])> {
-        let [px, py] = self.period;
         let eps = 1e-12;
-        let &b = self.cell_index.get(&(cell_of(u, px), cell_of(w, py)))?;
+        let &b = self.cell_index.get(&self.cell_at(u, w))?;
         let range =
             self.bucket_offsets[b as usize] as usize..self.bucket_offsets[b as usize + 1] as usize;
         self.bucket_pairs[range].iter().find_map(|&(_, f)| {
@@ -230,11 +256,10 @@ impl CellGrid {
 
     /// Rest material position `X` (m) of candidate `id`: its tile vertex shifted by its cell.
     fn material(&self, tile: &Tile, id: usize) -> [f64; 3] {
-        let [px, py] = self.period;
         let (c, v) = (id / self.n, id % self.n);
-        let (i, j) = self.cells[c];
+        let [du, dv] = self.copy_offset(self.cells[c]);
         let x = tile.positions[v];
-        [x.x + i as f64 * px, x.y + j as f64 * py, x.z]
+        [x.x + du, x.y + dv, x.z]
     }
 }
 
@@ -251,15 +276,15 @@ struct Located {
 impl Located {
     /// Locates every candidate of `grid` in `mesh`.
     fn locate(mesh: &RestMesh, tile: &Tile, grid: &CellGrid) -> Self {
-        let [px, py] = grid.period;
         let n = grid.n;
         let mut triangle: Vec<u32> = vec![NONE; grid.n_candidates()];
         let mut offset: Vec<[f64; 2]> = vec![[0.0; 2]; grid.n_candidates()];
         let mut cut_outside = 0usize;
-        for (c, &(i, j)) in grid.cells.iter().enumerate() {
+        for (c, &cell) in grid.cells.iter().enumerate() {
+            let [du, dv] = grid.copy_offset(cell);
             for v in 0..n {
                 let x = tile.positions[v];
-                let (u, w) = (x.x + i as f64 * px, x.y + j as f64 * py);
+                let (u, w) = (x.x + du, x.y + dv);
                 match grid.locate(mesh, u, w) {
                     Some((f, d)) => {
                         triangle[c * n + v] = f;
@@ -392,17 +417,13 @@ fn store_curves<T: Real>(
     out
 }
 
-/// Tiles `tile` over `mesh` and embeds the yarn vertices (see the module docs). The tile must
-/// be rectangular ([`Tile::skew`] `= 0`).
+/// Tiles `tile` over `mesh` and embeds the yarn vertices (see the module docs).
 pub fn embed<T: Real>(
     mesh: &RestMesh,
     tile: &Tile,
     options: &EmbedOptions,
 ) -> Result<Embedding<T>> {
     let topology = tile.topology()?;
-    if tile.skew != 0.0 {
-        return Err(DeformError::SkewedTile { skew: tile.skew });
-    }
     if !(options.min_fragment_length >= 0.0 && options.min_fragment_length.is_finite()) {
         return Err(DeformError::Option {
             name: "min_fragment_length",

@@ -77,14 +77,6 @@ pub enum DeformError {
         /// What is wrong.
         message: String,
     },
-    /// The tile's lattice is sheared; the UV grid of the embedding needs a rectangular tile.
-    #[error(
-        "the pattern tile has lattice skew {skew}, expected a rectangular tile (skew 0): build the pattern's rectangular repeat (sim-periodic's Pattern::generate_rectangular)"
-    )]
-    SkewedTile {
-        /// The tile's skew.
-        skew: f64,
-    },
     /// Nothing of the pattern lies on the mesh.
     #[error(
         "no yarn vertex lies on the mesh (UV area {uv_area:.3e} m², pattern period {period:?} m): check the UV scale"

@@ -402,3 +402,63 @@ fn deformed_pattern_renders_every_edge() {
     let png = r.image.to_png().unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
 }
+
+/// A tile on a sheared lattice ([`yarn_pattern::tile::Tile::skew`]; the seed stitch's
+/// primitive tile is one) is copied onto its own lattice: every embedded vertex is its tile
+/// vertex moved by `i a₁ + j a₂` with integer `i`, `j`, consecutive vertices follow tile edges,
+/// and away from the mesh border exactly the lattice copies are embedded (counted by brute
+/// force over the lattice). The same holds for the rectangular tile.
+#[test]
+fn a_sheared_tile_is_embedded_on_its_own_lattice() {
+    for skew in [0.0, 0.5, -0.5] {
+        let mut tile = stockinette();
+        tile.skew = skew;
+        let [px, py] = tile.period;
+        let (w, h) = (6.0 * px, 6.0 * py);
+        let mesh = synthetic::grid_mesh(6, 6, w, h);
+        let rest = RestMesh::new(&mesh, 1.0).unwrap();
+        let all = embed::<f64>(&rest, &tile, &EmbedOptions::default()).unwrap();
+        let topology = tile.topology().unwrap();
+        for k in 0..all.len() {
+            let v = all.tile_vertex[k] as usize;
+            let m = all.material[k];
+            let j = (m[1] - tile.positions[v].y) / py;
+            let i = (m[0] - tile.positions[v].x) / px - skew * j.round();
+            assert!(
+                (j - j.round()).abs() < 1e-9 && (i - i.round()).abs() < 1e-9,
+                "skew {skew}: vertex {k} is copy ({i}, {j}) of tile vertex {v}"
+            );
+            assert!((m[2] - tile.positions[v].z).abs() < 1e-15);
+        }
+        for c in 0..all.n_curves() {
+            let range = all.curve_offsets[c] as usize..all.curve_offsets[c + 1] as usize;
+            for k in range.start..range.end - 1 {
+                let (a, b) = (all.material[k], all.material[k + 1]);
+                let ev = tile.edge_vector(topology.outgoing(all.tile_vertex[k] as usize));
+                for (d, evc) in [ev.x, ev.y, ev.z].into_iter().enumerate() {
+                    assert!((b[d] - a[d] - evc).abs() < 1e-12, "skew {skew}, curve {c}");
+                }
+            }
+        }
+        // Inside the rectangle at least a period from its border (where a copy whose cell
+        // lies outside the mesh is not placed, as for rectangular tiles), exactly the lattice
+        // copies' vertices are embedded.
+        let interior = |x: f64, y: f64| x > px && x < w - px && y > py && y < h - py;
+        let expected = (-6..12)
+            .flat_map(|i| (-3..10).map(move |j| [i, j]))
+            .flat_map(|shift| {
+                let offset = tile.period_offset(shift);
+                tile.positions.iter().map(move |x| x + offset)
+            })
+            .filter(|p| interior(p.x, p.y))
+            .count();
+        let embedded = all.material.iter().filter(|m| interior(m[0], m[1])).count();
+        assert!(expected > 1000, "skew {skew}: {expected}");
+        assert_eq!(embedded, expected, "skew {skew}");
+        assert!(
+            all.material
+                .iter()
+                .all(|m| (0.0..=w).contains(&m[0]) && (0.0..=h).contains(&m[1]))
+        );
+    }
+}

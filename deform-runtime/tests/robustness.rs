@@ -159,21 +159,3 @@ fn invalid_options_are_rejected() {
     let err = deform_runtime::pipeline::build::<f32>(&tile, &db, &mesh, &options).unwrap_err();
     assert!(matches!(err, DeformError::EmptyEmbedding { .. }), "{err}");
 }
-
-#[test]
-fn a_sheared_tile_is_rejected_with_a_clear_error() {
-    let mut tile = stockinette();
-    let db = database(&tile);
-    let mesh = grid(&tile, 2.0, 2.0, 2);
-    tile.skew = 0.5;
-    let options = deform_runtime::pipeline::SetupOptions {
-        uv_scale: 1.0,
-        ..Default::default()
-    };
-    let err = deform_runtime::pipeline::build::<f32>(&tile, &db, &mesh, &options).unwrap_err();
-    assert!(
-        matches!(err, DeformError::SkewedTile { skew } if skew == 0.5),
-        "{err}"
-    );
-    assert!(err.to_string().contains("rectangular"), "{err}");
-}

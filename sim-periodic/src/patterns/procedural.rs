@@ -252,8 +252,8 @@ impl Pattern {
 
     /// [`Pattern::generate`] on the pattern's rectangular repeat (`skew = 0`): the same tile
     /// where the primitive repeat is rectangular, the 2 × 2 repeat of the seed stitch (twice
-    /// the vertices of its primitive tile). For code that needs rectangular tiles, such as the
-    /// deformer's UV grid, and to check a sheared tile against its rectangular repeat.
+    /// the vertices of its primitive tile). For code that needs rectangular tiles, and to check
+    /// a sheared tile against its rectangular repeat.
     pub fn generate_rectangular(self, params: &PatternParams) -> Result<Tile, PatternError> {
         let (lattice, yarns) = self.yarns_of(params, true)?;
         tile_from_yarns(lattice.period, lattice.skew, params.radius, &yarns)
