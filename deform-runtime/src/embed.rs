@@ -157,10 +157,14 @@ impl CellGrid {
                 let start = tile.skew * px * j as f64;
                 (cell_of(u0 - start, px), cell_of(u1 - start, px))
             };
-            let area = (j0..=j1).fold(0u64, |a, j| {
-                let (i0, i1) = row(j);
-                a.saturating_add((i1 - i0 + 1) as u64)
-            });
+            // Cells to cover, without visiting them (a wrong UV scale must fail fast): rows
+            // times columns, the columns of a sheared row bounded by one more than fit.
+            let columns = if tile.skew == 0.0 {
+                cell_of(u1, px) - cell_of(u0, px) + 1
+            } else {
+                ((u1 - u0) / px).floor() as i64 + 2
+            };
+            let area = (columns as u64).saturating_mul((j1 - j0 + 1) as u64);
             if area.saturating_mul(n as u64) > options.max_candidates {
                 return Err(DeformError::Option {
                     name: "uv_scale",

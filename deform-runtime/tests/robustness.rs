@@ -159,3 +159,33 @@ fn invalid_options_are_rejected() {
     let err = deform_runtime::pipeline::build::<f32>(&tile, &db, &mesh, &options).unwrap_err();
     assert!(matches!(err, DeformError::EmptyEmbedding { .. }), "{err}");
 }
+
+#[test]
+fn a_wrong_uv_scale_fails_fast_on_rectangular_and_sheared_tiles() {
+    for skew in [0.0, 0.5] {
+        let mut tile = stockinette();
+        tile.skew = skew;
+        let db = database(&tile);
+        let mesh = grid(&tile, 2.0, 2.0, 2);
+        // UVs a million times too large: about 10¹² cells per triangle.
+        let options = deform_runtime::pipeline::SetupOptions {
+            uv_scale: 1e6,
+            ..Default::default()
+        };
+        let err = deform_runtime::pipeline::build::<f32>(&tile, &db, &mesh, &options).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                DeformError::Option {
+                    name: "uv_scale",
+                    ..
+                }
+            ),
+            "skew {skew}: {err}"
+        );
+        assert!(
+            err.to_string().contains("pattern cells"),
+            "skew {skew}: {err}"
+        );
+    }
+}
