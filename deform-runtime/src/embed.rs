@@ -182,7 +182,10 @@ impl CellGrid {
                     (a.min(i0), b.max(i1))
                 });
             for i in i_min..=i_max {
-                for j in (j0..=j1).filter(|&j| (row(j).0..=row(j).1).contains(&i)) {
+                for j in (j0..=j1).filter(|&j| {
+                    let (i0, i1) = row(j);
+                    (i0..=i1).contains(&i)
+                }) {
                     let next = cells.len() as u32;
                     let c = *cell_index.entry((i, j)).or_insert_with(|| {
                         cells.push((i, j));

@@ -380,6 +380,9 @@ fn bad_inputs_are_errors_not_panics() {
     assert!(tile_from_yarns([4e-3, 4e-3], 0.0, R, &[yarn(vec![a, b], [0, 0])]).is_err());
     assert!(tile_from_yarns([4e-3, 4e-3], 0.0, R, &[]).is_err());
     assert!(tile_from_yarns([0.0, 4e-3], 0.0, R, &[yarn(vec![a, b], [1, 0])]).is_err());
+    // A lattice skew outside [-1/2, 1/2] (the tile's validation rejects it).
+    let err = tile_from_yarns([4e-3, 4e-3], 0.7, R, &[yarn(vec![a, b], [1, 0])]).unwrap_err();
+    assert!(err.to_string().contains("skew"), "{err}");
     // A straight periodic yarn is fine.
     let ok = tile_from_yarns([2e-3, 4e-3], 0.0, R, &[yarn(vec![a, b], [1, 0])]).unwrap();
     // b lies on the cell boundary x = px/2 and wraps to −px/2: edge 0 crosses.

@@ -35,7 +35,8 @@ fn lattice_cell(p: &Vector3<f64>, period: [f64; 2], skew: f64) -> [i32; 2] {
 /// Builds a tile of periods `period` and lattice skew `skew` ([`Tile::skew`]) from periodic
 /// yarn polylines; see the [module documentation](super) for the rest shape and frames.
 /// Vertices are numbered yarn by yarn in point order, edge `e` starts at vertex `e`. Errors on a
-/// non-positive period or radius, a skew outside `[−½, ½]`, non-finite points, a yarn with too
+/// non-positive period or radius, a skew outside `[−½, ½]` (through [`Tile::validate`]),
+/// non-finite points, a yarn with too
 /// few points, a zero-length edge or a yarn closing on itself with a zero shift and fewer than
 /// 3 points.
 pub fn tile_from_yarns(
@@ -54,11 +55,6 @@ pub fn tile_from_yarns(
                 "{name} must be positive and finite, found {v}"
             )));
         }
-    }
-    if skew.is_nan() || skew.abs() > 0.5 {
-        return Err(PatternError::Invalid(format!(
-            "skew must be a finite number in [-0.5, 0.5], found {skew}"
-        )));
     }
     if yarns.is_empty() {
         return Err(PatternError::Invalid("no yarns given".into()));
