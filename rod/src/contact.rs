@@ -8,7 +8,7 @@
 //!   `D(a, b)` the distance between the points at parameters `a`, `b` of the two edges, the
 //!   double integral evaluated with composite Simpson's rule.
 
-use crate::geometry::{M3, V3};
+use crate::geometry::V3;
 use crate::stencil::{Evaluation, Stencil};
 use nalgebra::SVector;
 
@@ -175,6 +175,11 @@ impl Stencil<12> for EdgeContact {
         let x = Self::split(q);
         let mut out = Evaluation::<12>::zero();
         let s = self.scale();
+        // With g(d) = f(|d|²/4R²) and d = Σ c_a x_a at each point: ∇_a g = c_a f' 2d/4R² and
+        // ∇²_ab g = c_a c_b (f'' (2d)(2d)ᵀ/(4R²)² + f' 2I/4R²). Summed over the points, the
+        // Hessian is a sum of rank-one terms `α u uᵀ` with `u = c ⊗ d` (12 entries) plus
+        // `(Σ β c cᵀ) ⊗ I`, accumulated as such instead of block by block.
+        let mut isotropic = [[0.0; 4]; 4];
         self.for_each_point(|w, c| {
             let d: V3 = (0..4).map(|k| c[k] * x[k]).sum();
             let d2 = d.norm_squared();
@@ -184,22 +189,35 @@ impl Stencil<12> for EdgeContact {
                 if f1 == 0.0 && f2 == 0.0 {
                     continue;
                 }
-                // g(d) = f(|d|²/4R²): ∇g = f' 2d/4R², ∇²g = f'' (2d)(2d)ᵀ/(4R²)² + f' 2I/4R².
                 let k = s * w * p.stiffness;
-                let gd = (2.0 * f1 / r2) * d;
-                let hd =
-                    (4.0 * f2 / (r2 * r2)) * d * d.transpose() + (2.0 * f1 / r2) * M3::identity();
+                let beta = 2.0 * f1 / r2;
+                let alpha = 4.0 * f2 / (r2 * r2);
                 out.energy += k * f;
-                for a in 0..4 {
-                    let mut ga = out.gradient.fixed_rows_mut::<3>(3 * a);
-                    ga += (k * c[a]) * gd;
-                    for b in 0..4 {
-                        let mut hab = out.hessian.fixed_view_mut::<3, 3>(3 * a, 3 * b);
-                        hab += (k * c[a] * c[b]) * hd;
+                let u: [f64; 12] = std::array::from_fn(|i| c[i / 3] * d[i % 3]);
+                for (i, ui) in u.iter().enumerate() {
+                    out.gradient[i] += k * beta * ui;
+                }
+                let ku = u.map(|ui| k * alpha * ui);
+                for (j, kuj) in ku.iter().enumerate() {
+                    let mut column = out.hessian.column_mut(j);
+                    for (hij, ui) in column.iter_mut().zip(&u) {
+                        *hij += ui * kuj;
+                    }
+                }
+                for (a, row) in isotropic.iter_mut().enumerate() {
+                    for (b, entry) in row.iter_mut().enumerate() {
+                        *entry += k * beta * c[a] * c[b];
                     }
                 }
             }
         });
+        for (a, row) in isotropic.iter().enumerate() {
+            for (b, &entry) in row.iter().enumerate() {
+                for i in 0..3 {
+                    out.hessian[(3 * a + i, 3 * b + i)] += entry;
+                }
+            }
+        }
         out
     }
 }

@@ -14,9 +14,9 @@
 //! matrix `K = H + μI + ρĈᵀĈ` (the augmented Lagrangian's Hessian, N&W §17.3), which is
 //! positive definite exactly when `H + μI` is positive definite on the null space of `C`, for
 //! `ρ` large enough (Debreu 1952). So `K` is factorized by sparse Cholesky (faer, AMD
-//! ordering, symbolic analysis once per solver), and the step follows from the Schur
-//! complement on the constraints, with `Y = K⁻¹Ĉᵀ` (`m` solves) and the dense `m × m`
-//! `Ŝ = ĈY`:
+//! ordering, supernodal, symbolic analysis once per solver), and the step follows from the
+//! Schur complement on the constraints, with `Y = K⁻¹Ĉᵀ` (one solve of `m` columns) and the
+//! dense `m × m` `Ŝ = ĈY`:
 //!
 //! ```text
 //! w = K⁻¹(−g + ρĈᵀr),    λ̂ = Ŝ⁻¹(Ĉw − r),    Δx = w − Yλ̂ .
@@ -41,19 +41,30 @@
 //! contacts (the `periodic-databases` benchmark measures the database times). The fill of
 //! `ĈᵀĈ` is the square of each row's length (the zero-mean
 //! rows of a periodic tile couple all vertices), so the method suits few or short
-//! constraint rows; its cost grows with `m` through the `m` solves for `Y`.
+//! constraint rows; its cost grows with `m` through the `m` columns of `Y`.
 //!
-//! *Dense rows, measured.* On the `yarn-fit` seed tile of then (the rectangular 2 × 2 repeat: 64
-//! vertices, 256 unknowns, 7 rows) the zero-mean and twist-drift rows make the factor dense (about
-//! 43 000 stored values). Yet with those rows replaced by single-entry pins (a sparse `K`, a
-//! different problem, as a timing control) a Newton iteration took 2.0 ms against 2.2 ms (a
-//! throw-away probe of the swarm objective at 10 pseudo-random points, release, 2026-11-29): the
-//! factorization is not where a periodic solve spends its time. A Woodbury treatment of the dense
-//! rows (`K` factorized without their `ρĉĉᵀ`, with `ρeeᵀ` at one pinned column each, corrected by a
-//! rank-2k capacitance whose inertia decides definiteness, falling back to `K` where the pinned
-//! matrix failed) was exact on small tests but not kept: on that tile 17 % of the factorizations
-//! fell back, one refinement step had to correct up to 3·10⁴ times the first solve (cancellation in
-//! the pinned matrix's soft modes), and 5 instead of 2 of the 10 evaluations failed.
+//! *Dense rows, measured.* The zero-mean and twist-drift rows of a periodic tile couple all its
+//! vertices, so its factor is dense or nearly so (the `yarn-fit` seed tile of 2026-11-29, the
+//! rectangular 2 × 2 repeat: 64 vertices, 256 unknowns, 7 rows, about 43 000 stored values).
+//! faer's own choice factorized the small tiles' `K` column by column (simplicial: its flop
+//! count per stored entry stays under its threshold), which cost the `yarn-fit` objective
+//! about 40 % of its time in the factorization and the solves (`perf` of `cargo bench -p bench
+//! --bench yarn_objective -- acrylic-yarn-seed --points 12`, 32 vertices, release, 2 threads,
+//! 2026-11-30). So `K` is always factorized supernodally (dense blocks,
+//! [`crate::linalg::Factorization::Supernodal`]), and the `m` columns of `Y` are one blocked
+//! solve: a Newton iteration took 1.530 → 1.299 ms there (476 iterations per evaluation
+//! before and after), and supernodal alone 0.864 → 0.808 ms on the 16-vertex stockinette and
+//! 1.811 → 1.508 ms on the 32-vertex rib (same bench, 12 points each, same hour). Tiles of
+//! about 100 vertices and more were supernodal already. With the rows replaced by
+//! single-entry pins (a sparse `K`, a different problem, as a timing control) a Newton
+//! iteration on the 64-vertex tile took 2.0 ms against 2.2 ms (simplicial, 2026-11-29), so
+//! the rows themselves cost little. A Woodbury treatment of the dense rows (`K` factorized
+//! without their `ρĉĉᵀ`, with `ρeeᵀ` at one pinned column each, corrected by a rank-2k
+//! capacitance whose inertia decides definiteness, falling back to `K` where the pinned
+//! matrix failed) was exact on small tests but not kept: on that tile 17 % of the
+//! factorizations fell back, one refinement step had to correct up to 3·10⁴ times the first
+//! solve (cancellation in the pinned matrix's soft modes), and 5 instead of 2 of the 10
+//! evaluations failed.
 //!
 //! **Convergence** uses the Lagrangian gradient `‖g + Cᵀλ‖∞ = ‖g + Ĉᵀλ̂‖∞` (zero exactly at a
 //! KKT point) in place of `‖g_f‖∞`, with the least-squares multipliers `λ̂ = −(ĈĈᵀ)⁻¹Ĉg` (the
@@ -80,7 +91,7 @@ use faer::sparse::{SparseColMat, SparseColMatRef};
 
 use crate::SolveError;
 use crate::assembly::{Assembler, Problem, check_len};
-use crate::linalg::{SparseLlt, symmetric_quadratic_form};
+use crate::linalg::{Factorization, SparseLlt, symmetric_quadratic_form};
 use crate::newton::{
     InitialShift, LinearSolver, NewtonReport, NewtonSettings, NewtonSystem, SystemFailure,
     inf_norm, run_newton,
@@ -327,7 +338,7 @@ impl KktSystem {
             .copied()
             .zip(gram_values)
             .collect();
-        let llt = SparseLlt::new(symbolic.as_ref())?;
+        let llt = SparseLlt::new(symbolic.as_ref(), Factorization::Supernodal, m)?;
         let nnz = symbolic.row_idx().len();
         let mut system = Self {
             c_norm_inf: constraints.norm_inf(),
@@ -413,9 +424,7 @@ impl KktSystem {
         for &(r, c, v) in &self.constraints.triplets {
             self.y[r * n + c] += self.row_scale[r] * v;
         }
-        for column in self.y.chunks_mut(n.max(1)).take(m) {
-            self.llt.solve_in_place(column)?;
-        }
+        self.llt.solve_columns_in_place(&mut self.y[..n * m], m)?;
         if m == 0 {
             return Ok(());
         }

@@ -3,7 +3,7 @@
 
 use crate::SolveError;
 use crate::assembly::Assembler;
-use crate::linalg::SparseLlt;
+use crate::linalg::{Factorization, SparseLlt};
 use crate::pcg::{Pcg, PcgFailure, PcgSettings};
 
 use super::driver::{NewtonSystem, SystemFailure};
@@ -79,7 +79,11 @@ impl FreeDofSystem {
         }
         match linear_solver {
             LinearSolver::Cholesky if self.llt.is_none() => {
-                self.llt = Some(SparseLlt::new(asm.hessian().symbolic())?);
+                self.llt = Some(SparseLlt::new(
+                    asm.hessian().symbolic(),
+                    Factorization::Auto,
+                    1,
+                )?);
             }
             LinearSolver::ConjugateGradient(_) if self.pcg.is_none() => {
                 self.pcg = Some(Pcg::new(asm.hessian())?);
