@@ -28,6 +28,10 @@
 //! nodes reuse the nodes' equilibria ([`sim_periodic::fit::objective`], same points, same
 //! solved and failed counts): 241–258, 437–621 and 574–612 Newton iterations (11–17 % fewer
 //! on every fabric), 0.19–0.20, 0.60–0.85 and 1.55–1.57 s (release, 2 cores, 2026-11-29).
+//! With the supernodal factorization and the rank-one contact Hessian (345f92d; 12 points,
+//! 2026-11-30, same hour): acrylic seed 1.530 → 1.253 ms per Newton iteration (32 vertices since
+//! the seed's primitive tile), acrylic rib 1.811 → 1.364 ms and acrylic stockinette 0.864 →
+//! 0.827 ms (these two "before" figures with the blocked solve of `Y` already in).
 //!
 //! Uniform points understate what a fit's swarm pays, about half on the acrylic seed
 //! ([`sim_periodic::fit::objective`]'s cost paragraph: after its uniform initial population
