@@ -424,7 +424,7 @@ impl KktSystem {
         for &(r, c, v) in &self.constraints.triplets {
             self.y[r * n + c] += self.row_scale[r] * v;
         }
-        self.llt.solve_columns_in_place(&mut self.y[..n * m], m)?;
+        self.llt.solve_columns_in_place(&mut self.y, m)?;
         if m == 0 {
             return Ok(());
         }

@@ -36,9 +36,8 @@ fn lattice_cell(p: &Vector3<f64>, period: [f64; 2], skew: f64) -> [i32; 2] {
 /// yarn polylines; see the [module documentation](super) for the rest shape and frames.
 /// Vertices are numbered yarn by yarn in point order, edge `e` starts at vertex `e`. Errors on a
 /// non-positive period or radius, a skew outside `[−½, ½]` (through [`Tile::validate`]),
-/// non-finite points, a yarn with too
-/// few points, a zero-length edge or a yarn closing on itself with a zero shift and fewer than
-/// 3 points.
+/// non-finite points, a yarn with too few points, a zero-length edge or a yarn closing on
+/// itself with a zero shift and fewer than 3 points.
 pub fn tile_from_yarns(
     period: [f64; 2],
     skew: f64,
