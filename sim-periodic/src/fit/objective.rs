@@ -140,7 +140,13 @@
 //! Then: assembling the Hessian 21 % (contact stencils 13 %, twist 9 %, bending 6 %, children
 //! included), the line search's energies 7 %, each solve's setup (pattern, ordering, symbolic
 //! analysis, rank check) about 8 %. A Newton iteration went 1.530 → 1.253 ms (with the contact
-//! Hessian accumulated as rank-one terms, [`rod::contact::EdgeContact`]).
+//! Hessian accumulated as rank-one terms, [`rod::contact::EdgeContact`]). On the acrylic rib (a
+//! later session the same day, on a machine 1.6× faster) the setup took 15 % (building the
+//! Hessian's pattern 8 %, the KKT matrix's 6 %, much of it sorting every stencil's coordinates
+//! into a pattern of 128 columns); `solver` now marks such small, crowded patterns in a dense
+//! table, and the setup took 10 % (`--points 30`). The patterns are the same, so every fit
+//! is the same bit for bit (the rib's: `g` 0.1741, 112 + 127 evaluations, yarn fit 197 → 192 s,
+//! one run each, within this machine's spread).
 
 use crate::coarse::Coarse;
 use crate::curves::{CurveSettings, directional_stress, uniaxial_curve_states};
