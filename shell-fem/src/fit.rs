@@ -28,6 +28,7 @@
 //! converge is rejected like a step that increases the cost (λ grows); only a failure at the
 //! initial guess is an error.
 
+use rayon::prelude::*;
 use std::time::Instant;
 use yarn_pattern::direction::Direction;
 
@@ -348,6 +349,53 @@ struct DirectionSim {
 /// `(∂f_s/∂p, ∂c/∂p)` of one target.
 type Jacobian = ([f64; InPlaneParams::LEN], [f64; InPlaneParams::LEN]);
 
+/// One direction's simulated `(f_s, c)` and (if asked) Jacobian per target, in `idx` order,
+/// and the equilibrium states.
+type DirectionResult = (Vec<((f64, f64), Option<Jacobian>)>, Vec<Vec<f64>>);
+
+impl DirectionSim {
+    /// Simulates this direction's targets with `material`, each warm-started from its
+    /// previous accepted equilibrium or, failing that, continued from the previous target (or
+    /// from rest).
+    fn simulate(
+        &mut self,
+        material: Material,
+        targets: &[Target],
+        with_jac: bool,
+    ) -> Result<DirectionResult, ShellError> {
+        self.test.set_material(material);
+        let mut points = Vec::with_capacity(self.idx.len());
+        let mut new_states: Vec<Vec<f64>> = Vec::with_capacity(self.idx.len());
+        for (j, &ti) in self.idx.iter().enumerate() {
+            let s = targets[ti].s;
+            let mut point = None;
+            if let Some(x) = &self.states[j] {
+                self.test.set_state(s, x)?;
+                point = self.test.solve_to(s).ok();
+            }
+            let point = match point {
+                Some(p) => p,
+                None => {
+                    match new_states.last() {
+                        Some(x) => self.test.set_state(targets[self.idx[j - 1]].s, x)?,
+                        None => self.test.reset(),
+                    }
+                    self.test.solve_to(s)?
+                }
+            };
+            let sensitivity = if with_jac {
+                let sens = self.test.sensitivities()?;
+                Some((sens.force, sens.compression))
+            } else {
+                None
+            };
+            points.push(((point.force, point.compression), sensitivity));
+            new_states.push(self.test.positions().to_vec());
+        }
+        Ok((points, new_states))
+    }
+}
+
 struct Evaluation {
     sim: Vec<(f64, f64)>,
     jac: Option<Vec<Jacobian>>,
@@ -473,41 +521,28 @@ impl Simulator {
         if self.test == VirtualTest::Uniaxial {
             return self.evaluate_uniaxial(p, targets, with_jac);
         }
+        let material = Material {
+            params: *p,
+            model: self.model,
+        };
+        // The directions are independent stretch tests: run them in parallel, merged in
+        // direction order (the first direction's error wins, as when they ran in turn).
+        let simulated: Vec<_> = self
+            .dirs
+            .par_iter_mut()
+            .map(|d| d.simulate(material, targets, with_jac))
+            .collect();
         let mut sim = vec![(0.0, 0.0); self.n_targets];
         let mut jac = with_jac
             .then(|| vec![([0.0; InPlaneParams::LEN], [0.0; InPlaneParams::LEN]); self.n_targets]);
-        let mut states = Vec::new();
-        for d in &mut self.dirs {
-            d.test.set_material(Material {
-                params: *p,
-                model: self.model,
-            });
-            let mut new_states: Vec<Vec<f64>> = Vec::with_capacity(d.idx.len());
-            for (j, &ti) in d.idx.iter().enumerate() {
-                let s = targets[ti].s;
-                // Warm start from the previous accepted equilibrium at this target; fall back
-                // to continuing from the previous target (or from rest).
-                let mut point = None;
-                if let Some(x) = &d.states[j] {
-                    d.test.set_state(s, x)?;
-                    point = d.test.solve_to(s).ok();
+        let mut states = Vec::with_capacity(simulated.len());
+        for (d, result) in self.dirs.iter().zip(simulated) {
+            let (points, new_states) = result?;
+            for (&ti, (point, sensitivity)) in d.idx.iter().zip(points) {
+                sim[ti] = point;
+                if let (Some(jac), Some(sensitivity)) = (jac.as_mut(), sensitivity) {
+                    jac[ti] = sensitivity;
                 }
-                let point = match point {
-                    Some(p) => p,
-                    None => {
-                        match new_states.last() {
-                            Some(x) => d.test.set_state(targets[d.idx[j - 1]].s, x)?,
-                            None => d.test.reset(),
-                        }
-                        d.test.solve_to(s)?
-                    }
-                };
-                sim[ti] = (point.force, point.compression);
-                if let Some(jac) = jac.as_mut() {
-                    let sens = d.test.sensitivities()?;
-                    jac[ti] = (sens.force, sens.compression);
-                }
-                new_states.push(d.test.positions().to_vec());
             }
             states.push(new_states.into_iter().map(Some).collect());
         }

@@ -117,6 +117,32 @@ fn fit_recovers_known_stiffening_parameters() {
     assert!(result.errors.force_error < 1e-4 && result.errors.compression_error < 1e-4);
 }
 
+#[test]
+fn fit_is_the_same_on_one_and_two_threads() {
+    // The directions' stretch tests run in parallel (Simulator::evaluate): the fit must not
+    // depend on how they are scheduled, bit for bit.
+    let truth = InPlaneParams::example();
+    let cfg = FitConfig {
+        swatch: coarse(),
+        ..FitConfig::default()
+    };
+    let targets = virtual_targets(&truth, &ALL_DIRECTIONS, &cfg.swatch);
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| fit(&targets, start([0.0; 4]), &cfg, None).unwrap())
+    };
+    let (one, two) = (run(1), run(2));
+    let bits = |p: &InPlaneParams| p.to_array().map(f64::to_bits);
+    assert_eq!(bits(&one.params), bits(&two.params));
+    assert_eq!(one.cost_history.len(), two.cost_history.len());
+    for (a, b) in one.cost_history.iter().zip(&two.cost_history) {
+        assert_eq!(a.to_bits(), b.to_bits());
+    }
+}
+
 /// The fits' starting point: stiffnesses 22–75 % off the truth ([`InPlaneParams::example`]),
 /// stiffening rates `[bx, by, cx, cy]`.
 fn start([bx, by, cx, cy]: [f64; 4]) -> InPlaneParams {
