@@ -88,7 +88,9 @@
 //! slowest the acrylic rib's 179 s (321 s above; shell fit 18.7 s). Most of that is the
 //! machine: the same code (0681d07) fitted the rib in 197 s on it. The rest is 60294ab's dense
 //! pattern table, which leaves every solve bit for bit (the rib 197 → 192 s in the benchmark,
-//! one run each).
+//! one run each). The run at ba222cc, whose shell fit runs its directions in parallel (the
+//! same fits bit for bit), took the eight shell fits 96 → 56 s (the rib's 18.7 → 9.5 s; its
+//! whole fit 189 s) and the yarn fits 797 s.
 //!
 //! **Hold-out.** The fit's settings were chosen while looking at one fabric only,
 //! `acrylic-yarn-stockinette` (the development fabric); the other seven were first fitted by
