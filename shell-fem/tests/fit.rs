@@ -85,14 +85,21 @@ fn virtual_targets_with(
     targets
 }
 
-#[test]
-fn fit_recovers_known_parameters_within_one_percent() {
+/// The augmented model's example parameters, the default fit on the coarse swatch, and
+/// virtual targets in all three directions.
+fn augmented_case() -> (InPlaneParams, FitConfig, Vec<Target>) {
     let truth = InPlaneParams::example();
     let cfg = FitConfig {
         swatch: coarse(),
         ..FitConfig::default()
     };
     let targets = virtual_targets(&truth, &ALL_DIRECTIONS, &cfg.swatch);
+    (truth, cfg, targets)
+}
+
+#[test]
+fn fit_recovers_known_parameters_within_one_percent() {
+    let (truth, cfg, targets) = augmented_case();
     let initial = start([0.0; 4]);
     let result = fit(&targets, initial, &cfg, None).unwrap();
     println!("{result:#?}");
@@ -121,12 +128,7 @@ fn fit_recovers_known_stiffening_parameters() {
 fn fit_is_the_same_on_one_and_two_threads() {
     // The directions' stretch tests run in parallel (Simulator::evaluate): the fit must not
     // depend on how they are scheduled, bit for bit.
-    let truth = InPlaneParams::example();
-    let cfg = FitConfig {
-        swatch: coarse(),
-        ..FitConfig::default()
-    };
-    let targets = virtual_targets(&truth, &ALL_DIRECTIONS, &cfg.swatch);
+    let (_, cfg, targets) = augmented_case();
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

@@ -91,7 +91,7 @@ use faer::sparse::{SparseColMat, SparseColMatRef};
 
 use crate::SolveError;
 use crate::assembly::{Assembler, Problem, check_len};
-use crate::linalg::{Factorization, SparseLlt, symmetric_quadratic_form};
+use crate::linalg::{Factorization, SparseLlt, symmetric_multiply_sub, symmetric_quadratic_form};
 use crate::newton::{
     InitialShift, LinearSolver, NewtonReport, NewtonSettings, NewtonSystem, SystemFailure,
     inf_norm, run_newton,
@@ -497,19 +497,7 @@ impl KktSystem {
         let (x, lambda) = self.sol.split_at(n);
         let (p, q) = self.rhs.split_at_mut(n);
         match h {
-            Some(h) => {
-                // One triangle of H is stored.
-                let (sym, values) = (h.symbolic(), h.val());
-                for j in 0..n {
-                    let range = sym.col_range(j);
-                    for (&i, &v) in sym.row_idx()[range.clone()].iter().zip(&values[range]) {
-                        p[i] -= v * x[j];
-                        if i != j {
-                            p[j] -= v * x[i];
-                        }
-                    }
-                }
-            }
+            Some(h) => symmetric_multiply_sub(h, x, p),
             None => p.iter_mut().zip(x).for_each(|(pi, xi)| *pi -= xi),
         }
         for (pi, xi) in p.iter_mut().zip(x) {

@@ -137,6 +137,24 @@ impl SparseLlt {
     }
 }
 
+/// `out ← out − H x` for a symmetric `H` stored as one triangle (either), column by column.
+pub(crate) fn symmetric_multiply_sub(
+    h: SparseColMatRef<'_, usize, f64>,
+    x: &[f64],
+    out: &mut [f64],
+) {
+    let (sym, values) = (h.symbolic(), h.val());
+    for (j, &xj) in x.iter().enumerate() {
+        let range = sym.col_range(j);
+        for (&i, &v) in sym.row_idx()[range.clone()].iter().zip(&values[range]) {
+            out[i] -= v * xj;
+            if i != j {
+                out[j] -= v * x[i];
+            }
+        }
+    }
+}
+
 /// `vᵀHv` for a symmetric `H` stored as one triangle (either).
 pub(crate) fn symmetric_quadratic_form(h: SparseColMatRef<'_, usize, f64>, v: &[f64]) -> f64 {
     let (sym, values) = (h.symbolic(), h.val());
@@ -181,18 +199,9 @@ mod tests {
 
     /// `A x` for the lower triangle `a` of a symmetric matrix.
     fn apply(a: &SparseColMat<usize, f64>, x: &[f64]) -> Vec<f64> {
-        let mut y = vec![0.0; x.len()];
-        let (sym, values) = (a.symbolic(), a.val());
-        for j in 0..x.len() {
-            let range = sym.col_range(j);
-            for (&i, &v) in sym.row_idx()[range.clone()].iter().zip(&values[range]) {
-                y[i] += v * x[j];
-                if i != j {
-                    y[j] += v * x[i];
-                }
-            }
-        }
-        y
+        let mut minus = vec![0.0; x.len()];
+        symmetric_multiply_sub(a.as_ref(), x, &mut minus);
+        minus.iter().map(|v| -v).collect()
     }
 
     /// Each factorization runs the method asked for (faer's own choice is simplicial on this
