@@ -423,6 +423,8 @@ impl Config {
 /// swarm_samples = 7             # stress samples per direction in the swarm
 /// local = "levenberg-marquardt" # or "cobyla" (the paper's)
 /// local_samples = 20
+/// sample_layout = "even"        # or "comfort-half": half of the samples in the comfort range
+///                               # (beyond the paper; the yarn-fit figure's)
 /// local_evaluations = 60
 /// local_starts = 1              # Levenberg–Marquardt from this many distinct swarm points
 ///                               # (in parallel; the yarn-fit figure uses 3)
@@ -497,6 +499,8 @@ pub struct FitOptions {
     pub local: String,
     /// Stress samples per direction in the local search.
     pub local_samples: usize,
+    /// `even` or `comfort-half` ([`crate::fit::SampleLayout`]), for both phases.
+    pub sample_layout: String,
     /// Most local evaluations (COBYLA) or iterations (Levenberg–Marquardt).
     pub local_evaluations: usize,
     /// Levenberg–Marquardt starts ([`crate::fit::FitSettings::local_starts`]).
@@ -526,6 +530,11 @@ impl Default for FitOptions {
             swarm_samples: s.swarm_objective.samples,
             local: "levenberg-marquardt".into(),
             local_samples: s.local_objective.samples,
+            sample_layout: match s.local_objective.layout {
+                crate::fit::SampleLayout::Even => "even",
+                crate::fit::SampleLayout::ComfortHalf => "comfort-half",
+            }
+            .into(),
             local_evaluations: s.local_evaluations,
             local_starts: s.local_starts,
             local_geometry: s.local_geometry,
@@ -561,7 +570,9 @@ impl FitConfig {
 
     /// The fit settings.
     pub fn settings(&self, path: &Path) -> Result<crate::fit::FitSettings, ConfigError> {
-        use crate::fit::{FitSettings, LocalMethod, ObjectiveSettings, SwarmSettings};
+        use crate::fit::{
+            FitSettings, LocalMethod, ObjectiveSettings, SampleLayout, SwarmSettings,
+        };
         let f = &self.fit;
         let bad = |message: String| ConfigError::Invalid {
             message,
@@ -573,6 +584,15 @@ impl FitConfig {
             other => {
                 return Err(bad(format!(
                     "[fit] local must be \"levenberg-marquardt\" or \"cobyla\", found {other:?}"
+                )));
+            }
+        };
+        let layout = match f.sample_layout.as_str() {
+            "even" => SampleLayout::Even,
+            "comfort-half" => SampleLayout::ComfortHalf,
+            other => {
+                return Err(bad(format!(
+                    "[fit] sample_layout must be \"even\" or \"comfort-half\", found {other:?}"
                 )));
             }
         };
@@ -604,6 +624,7 @@ impl FitConfig {
                 ..Default::default()
             },
             curve: curve.clone(),
+            layout,
         };
         Ok(FitSettings {
             swarm: f.swarm.then_some(SwarmSettings {

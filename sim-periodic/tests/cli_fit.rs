@@ -148,5 +148,12 @@ fn bad_fit_configs_are_refused_with_file_and_problem() {
     );
     let e = run("targets = \"curves.csv\"\nout = \"o\"\ntile = \"t.pyp\"\nresolution = 16\n");
     assert!(e.contains("c.toml") && e.contains("`resolution`"), "{e}");
+    let e = run(
+        "targets = \"curves.csv\"\nout = \"o\"\npattern = \"garter\"\n[fit]\nsample_layout = \"dense\"\n",
+    );
+    assert!(
+        e.contains("c.toml") && e.contains("\"dense\"") && e.contains("comfort-half"),
+        "{e}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -4,7 +4,8 @@
 use sim_periodic::curves::{CurveSettings, uniaxial_curve};
 use sim_periodic::fit::{
     Bound, FitError, FitResult, FitSettings, Journal, LocalMethod, Objective, ObjectiveSettings,
-    Parameter, ParameterSpace, Targets, estimated_radius, fit, stretched_geometry,
+    Parameter, ParameterSpace, SampleLayout, TargetPoint, Targets, estimated_radius, fit,
+    stretched_geometry,
 };
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel};
 use yarn_pattern::direction::Direction;
@@ -228,6 +229,85 @@ fn samples_at_compression_nodes_are_the_nodes_equilibria() {
             nodes[a].sigma_s < sigma && sigma < nodes[b].sigma_s,
             "sample {sample}"
         );
+    }
+}
+
+/// The comfort-half layout puts half of the samples (rounded up) in the comfort range, its
+/// end among them, and ends at the curve's last stretch bit for bit (where the last
+/// compression node lies, so that sample is the node's equilibrium); a curve that never
+/// leaves the comfort range is sampled evenly.
+#[test]
+fn the_comfort_half_layout_samples_the_comfort_range_with_half_the_samples() {
+    let geometry = geometry();
+    // σ̂ = 100 s² N/m up to s = 0.9: the comfort stress 2 N / 6 cm = 33.3 N/m is reached
+    // between the points at 0.54 and 0.63, where the linear interpolation puts it.
+    let curve = |top: f64| -> Vec<TargetPoint> {
+        (0..=10)
+            .map(|i| {
+                let s = 0.09 * i as f64;
+                TargetPoint {
+                    s,
+                    c: 0.2 * s,
+                    sigma: top * s * s,
+                }
+            })
+            .collect()
+    };
+    let (s54, s63) = (0.09 * 6.0, 0.09 * 7.0);
+    let comfort = 2.0 / 0.06;
+    let (f54, f63) = (100.0 * s54 * s54, 100.0 * s63 * s63);
+    let s_c = s54 + (comfort - f54) / (f63 - f54) * (s63 - s54);
+    for (n, inside) in [(7, 4), (20, 10), (2, 1), (3, 2)] {
+        let targets = Targets {
+            curves: [(Direction::Weft, curve(100.0))].into(),
+        };
+        let layout = |layout| {
+            Objective {
+                geometry: &geometry,
+                targets: &targets,
+                settings: ObjectiveSettings {
+                    samples: n,
+                    layout,
+                    ..ObjectiveSettings::default()
+                },
+            }
+            .stretches(Direction::Weft)
+            .unwrap()
+        };
+        let s = layout(SampleLayout::ComfortHalf);
+        assert_eq!(s.len(), n);
+        assert_eq!(s[0], 0.0);
+        assert_eq!(*s.last().unwrap(), 0.9, "n = {n}: {s:?}");
+        assert!(s.windows(2).all(|w| w[0] < w[1]), "n = {n}: {s:?}");
+        let within = s.iter().filter(|&&x| x <= s_c + 1e-12).count();
+        assert_eq!(within, inside, "n = {n}: {s:?}, comfort to {s_c}");
+        if inside > 1 {
+            assert!((s[inside - 1] - s_c).abs() < 1e-12, "n = {n}: {s:?}");
+        }
+        // The paper's even layout.
+        let even = layout(SampleLayout::Even);
+        assert!(
+            even.iter()
+                .enumerate()
+                .all(|(i, &x)| (x - 0.9 * i as f64 / (n - 1) as f64).abs() < 1e-15),
+            "{even:?}"
+        );
+        // A curve that stays below the comfort stress: the whole range is comfort.
+        let soft = Targets {
+            curves: [(Direction::Weft, curve(30.0))].into(),
+        };
+        let s = Objective {
+            geometry: &geometry,
+            targets: &soft,
+            settings: ObjectiveSettings {
+                samples: n,
+                layout: SampleLayout::ComfortHalf,
+                ..ObjectiveSettings::default()
+            },
+        }
+        .stretches(Direction::Weft)
+        .unwrap();
+        assert_eq!(s, even, "n = {n}");
     }
 }
 

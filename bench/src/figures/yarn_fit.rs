@@ -109,8 +109,8 @@ use shell_fem::material::{Material, Model};
 use shell_fem::measurements::BinOptions;
 use shell_fem::swatch::SwatchConfig;
 use sim_periodic::fit::{
-    Bound, FitResult, FitSettings, Journal, Parameter, ParameterSpace, TargetPoint, Targets,
-    estimated_radius, fit,
+    Bound, FitResult, FitSettings, Journal, Parameter, ParameterSpace, SampleLayout, TargetPoint,
+    Targets, estimated_radius, fit,
 };
 use sim_periodic::patterns::Pattern;
 use sim_periodic::periodic::YarnModel;
@@ -420,6 +420,47 @@ pub const LOCAL_STARTS: usize = 3;
 /// (two more at 10.2 and 10.6 %), slowest fit 543 → 780 s (babyredo rib).
 pub const SWARM_INERTIA: (f64, f64) = (0.9, 0.1);
 
+/// Where the objective's stress samples lie: half of each direction's in its comfort range
+/// ([`SampleLayout::ComfortHalf`], beyond the paper; [`sim_periodic::fit::objective`]'s
+/// *Sample layout*), the other half beyond it, instead of evenly over the tested range.
+///
+/// Chosen after a diagnosis on all eight fabrics (at the committed fits of 565c3a9, the
+/// comfort-range terms were 7–42 % of `g`; the rest, mostly power-range compression, is what
+/// the fits had traded the comfort range for), then measured with two swarm seeds, one full
+/// run each (release, 2 cores, 2026-11-30). The comfort-range error below is measured on the
+/// paper's even grid of 20 samples for every fit, so both layouts are compared on one metric
+/// (a throw-away probe re-evaluating the fitted parameters); in brackets the objective `g` of
+/// the fit's own layout, which is what a fit and its restarts minimize:
+///
+/// | fabric | even, seed 2022 | even, 2023 | comfort-half, 2022 | comfort-half, 2023 |
+/// |---|---|---|---|---|
+/// | acrylic garter | 12.6 % (0.184) | 13.2 % (0.154) | 3.4 % (0.097) | 18.0 % (0.188) |
+/// | acrylic rib | 16.7 % (0.174) | 11.7 % (0.140) | 9.8 % (0.186) | 20.6 % (0.235) |
+/// | acrylic seed | 6.8 % (0.041) | 2.7 % (0.054) | 5.3 % (0.040) | 5.5 % (0.035) |
+/// | acrylic stockinette (development) | 10.6 % (0.073) | 8.3 % (0.157) | 9.5 % (0.066) | 9.6 % (0.065) |
+/// | babyredo garter | 19.3 % (0.401) | 25.0 % (0.477) | 13.8 % (0.201) | 26.8 % (0.574) |
+/// | babyredo rib | 9.0 % (0.084) | 8.0 % (0.074) | 9.6 % (0.071) | 5.9 % (0.063) |
+/// | babyredo seed | 18.3 % (0.316) | 34.6 % (0.498) | 12.4 % (0.105) | 44.7 % (1.244) |
+/// | babyredo stockinette | 14.7 % (0.076) | 12.9 % (0.074) | 13.3 % (0.066) | 12.8 % (0.067) |
+/// | mean | 13.5 % | 14.6 % | 9.7 % | 18.0 % |
+/// | best `g` of the two seeds ([`RESTARTS`]) | 12.6 % | | 9.2 % | |
+///
+/// With one swarm the layout's effect is smaller than the seed's: comfort-half is better
+/// with seed 2022 and worse with 2023. What it changes is which fit has the lower `g`: over
+/// the two seeds, the even layout's lower `g` had the higher comfort-range error on three
+/// fabrics, by 0.7, 4.1 and 2.2 points; the comfort-half layout's on three by 0.2, 0.1 and
+/// 0.5. So the best of two swarms by `g` ([`RESTARTS`]) keeps the better comfort-range fit
+/// with this layout: 9.2 % mean (5 of 8 within 10 %) against 12.6 % (2 of 8) with the even
+/// one, at the same cost. Two seeds are a small sample; the table is the whole of it.
+pub const SAMPLE_LAYOUT: SampleLayout = SampleLayout::ComfortHalf;
+
+/// Independent swarms per fit, each with its local search, the lowest final `g` kept
+/// ([`sim_periodic::fit::SwarmSettings::restarts`], seeds 2022 and 2023): the swarm's seed
+/// moves a fit more than any setting measured here (the [`SAMPLE_LAYOUT`] table; the seed
+/// study in this module's docs). Doubles the fit's cost: the slowest yarn fit in the table's
+/// runs would take 204 + 113 s (babyredo rib) instead of 204 s.
+pub const RESTARTS: usize = 2;
+
 /// Fit settings of the full and the quick run (the quick run: a tiny swarm and one start).
 pub fn settings(quick: bool) -> FitSettings {
     let mut s = FitSettings {
@@ -429,11 +470,17 @@ pub fn settings(quick: bool) -> FitSettings {
     if let Some(swarm) = &mut s.swarm {
         swarm.inertia = SWARM_INERTIA;
     }
+    if let Some(swarm) = &mut s.swarm {
+        swarm.restarts = RESTARTS;
+    }
+    s.swarm_objective.layout = SAMPLE_LAYOUT;
+    s.local_objective.layout = SAMPLE_LAYOUT;
     if quick {
         s.local_starts = 1;
         if let Some(swarm) = &mut s.swarm {
             swarm.particles = 4;
             swarm.iterations = 1;
+            swarm.restarts = 1;
         }
         s.swarm_objective.samples = 5;
         s.local_objective.samples = 10;

@@ -15,13 +15,18 @@
 //! instead of refining it ([`FitSettings::local_geometry`]; the default before it was
 //! adopted; with argmin's constant inertia and the Jacobian at accepted points only it ended
 //! at g 0.0734, below the 0.0775 of refining it, and with the paper's inertia at 0.0804).
+//! Then `yarn-fit`'s settings with the paper's evenly spaced stress samples instead of half of
+//! them in the comfort range ([`SAMPLE_LAYOUT`](super::yarn_fit::SAMPLE_LAYOUT)), and with one
+//! swarm instead of [`RESTARTS`](super::yarn_fit::RESTARTS) (both chosen on all eight
+//! fabrics, see their docs). Every variant with a swarm runs `yarn-fit`'s restarts and sample
+//! layout unless it says otherwise.
 
 use std::time::Instant;
 
 use rod::stretch::StretchLaw;
 use sim_periodic::fit::{
-    Bound, Evaluation, FitSettings, Journal, LocalMethod, Parameter, ParameterSpace, Targets,
-    constant_inertia, estimated_radius, fit,
+    Bound, Evaluation, FitSettings, Journal, LocalMethod, Parameter, ParameterSpace, SampleLayout,
+    Targets, constant_inertia, estimated_radius, fit,
 };
 use sim_periodic::periodic::YarnModel;
 use yarn_pattern::direction::Direction;
@@ -38,7 +43,7 @@ pub fn spec() -> FigureSpec {
     FigureSpec {
         name: "yarn-fit-ablations",
         title: "Yarn fit ablations: swarm, stretch law, rest shape, local method",
-        shows: "stretch stress against stretch (weft, warp) of the development fabric's shell targets and of the yarn model fitted with: swarm + Levenberg–Marquardt (ours, default), swarm + COBYLA (paper), COBYLA without swarm (Fig. 11), Levenberg–Marquardt without swarm, a linear yarn stretch law (Fig. 16), no rest-shape estimation (Fig. 17), and (beyond the paper) k_s2 fitted too, or the procedural tile's stretch along x and y fitted too, with one or three Levenberg–Marquardt starts, with argmin's constant instead of the paper's decaying swarm inertia, and with Levenberg–Marquardt keeping the swarm's geometry instead of refining it; last panel: comfort-range error and fit time per variant",
+        shows: "stretch stress against stretch (weft, warp) of the development fabric's shell targets and of the yarn model fitted with: swarm + Levenberg–Marquardt (ours, default), swarm + COBYLA (paper), COBYLA without swarm (Fig. 11), Levenberg–Marquardt without swarm, a linear yarn stretch law (Fig. 16), no rest-shape estimation (Fig. 17), and (beyond the paper) k_s2 fitted too, or the procedural tile's stretch along x and y fitted too, with one or three Levenberg–Marquardt starts, with argmin's constant instead of the paper's decaying swarm inertia, with Levenberg–Marquardt keeping the swarm's geometry instead of refining it, with the paper's even sample layout, and with one swarm instead of two; last panel: comfort-range error and fit time per variant",
         paper: "Figs. 11, 16, 17: without the swarm, with a linear stretch law or without rest-shape estimation the stretching error blows up",
         guarded: false,
         run,
@@ -66,6 +71,11 @@ struct Variant {
     /// Levenberg–Marquardt refines the fitted geometry too ([`FitSettings::local_geometry`],
     /// the default) instead of keeping the swarm's.
     local_geometry: bool,
+    /// The paper's evenly spaced stress samples instead of `yarn-fit`'s
+    /// [`SAMPLE_LAYOUT`](super::yarn_fit::SAMPLE_LAYOUT).
+    even_samples: bool,
+    /// One swarm instead of `yarn-fit`'s [`RESTARTS`](super::yarn_fit::RESTARTS).
+    one_swarm: bool,
 }
 
 /// Bounds of `k_s2` in the "free k2" variant (N): a decade either side of the 200 N default
@@ -85,9 +95,11 @@ const DEFAULT: Variant = Variant {
     local_starts: 1,
     constant_inertia: false,
     local_geometry: true,
+    even_samples: false,
+    one_swarm: false,
 };
 
-const VARIANTS: [Variant; 11] = [
+const VARIANTS: [Variant; 13] = [
     DEFAULT,
     Variant {
         name: "swarm + COBYLA (paper)",
@@ -143,6 +155,20 @@ const VARIANTS: [Variant; 11] = [
         free_geometry: true,
         local_starts: LOCAL_STARTS,
         local_geometry: false,
+        ..DEFAULT
+    },
+    Variant {
+        name: "as yarn-fit, the paper's even sample layout",
+        free_geometry: true,
+        local_starts: LOCAL_STARTS,
+        even_samples: true,
+        ..DEFAULT
+    },
+    Variant {
+        name: "as yarn-fit, one swarm",
+        free_geometry: true,
+        local_starts: LOCAL_STARTS,
+        one_swarm: true,
         ..DEFAULT
     },
 ];
@@ -207,6 +233,15 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             // COBYLA counts evaluations, LM iterations: give COBYLA as many evaluations as
             // the default LM run is allowed iterations, and at least n + 2.
             s.local_evaluations = s.local_evaluations.max(space.dim() + 2);
+        }
+        if v.one_swarm
+            && let Some(swarm) = &mut s.swarm
+        {
+            swarm.restarts = 1;
+        }
+        if v.even_samples {
+            s.swarm_objective.layout = SampleLayout::Even;
+            s.local_objective.layout = SampleLayout::Even;
         }
         s.swarm_objective.rest_shape = v.rest_shape;
         s.local_objective.rest_shape = v.rest_shape;
