@@ -4,8 +4,9 @@
 //!    stretched in weft and warp ([`super::cross_method::persistent_test`]);
 //! 2. the stiffening shell is fitted to its curves (clamped swatch of the same size);
 //! 3. the shell's homogeneous curves are the uniform targets;
-//! 4. the yarn-level parameters are fitted to them (`sim_periodic::fit`, the default swarm
-//!    and Levenberg–Marquardt, on the procedural stockinette);
+//! 4. the yarn-level parameters are fitted to them (`sim_periodic::fit` with `yarn-fit`'s
+//!    swarm and Levenberg–Marquardt, but the paper's even samples and one swarm, on the
+//!    procedural stockinette);
 //! 5. the recovered parameters are compared with the known ones;
 //! 6. the recovered yarn is stretched again in `sim-persistent` and its curves compared with
 //!    the original's, in the paper's metric (mean absolute stress error relative to the
@@ -19,7 +20,7 @@
 use anyhow::Context;
 use rod::stretch::StretchLaw;
 use rod::yarn::YarnMaterial;
-use sim_periodic::fit::{Journal, TargetPoint, Targets, fit};
+use sim_periodic::fit::{Journal, SampleLayout, TargetPoint, Targets, fit};
 use sim_periodic::patterns::Pattern;
 use sim_periodic::periodic::YarnModel;
 use sim_persistent::experiment::uniaxial::{Pull, UniaxialRun};
@@ -83,7 +84,17 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     // 4. The yarn fit.
     let base = YarnModel::from_material(&known).map_err(anyhow::Error::msg)?;
     let (geometry, space) = super::yarn_fit::geometry_and_space(pattern, &base, known.radius)?;
-    let settings = super::yarn_fit::settings(ctx.quick);
+    // yarn-fit's settings as they were before its comfort-half samples and second swarm
+    // (a5c8811): with those, the recovered yarn's re-simulated weft stretch did not converge
+    // (Newton, 200 iterations, at the first step, s = 0.0188, after 4 halvings; full run,
+    // 2026-11-30). Not investigated further; the loop checks the pipeline on the paper's
+    // even samples and one swarm.
+    let mut settings = super::yarn_fit::settings(ctx.quick);
+    settings.swarm_objective.layout = SampleLayout::Even;
+    settings.local_objective.layout = SampleLayout::Even;
+    if let Some(swarm) = &mut settings.swarm {
+        swarm.restarts = 1;
+    }
     let result = fit(
         &geometry,
         &targets,
