@@ -228,7 +228,7 @@ pub enum SampleLayout {
     Even,
     /// Half of the samples (rounded up) evenly spaced in the comfort range `[0, s_comfort]`,
     /// the others in `(s_comfort, s_max]`, the last at `s_max`; evenly spaced in `[0, s_max]`
-    /// where either range is empty. Beyond the paper: see the module documentation's
+    /// where either range is empty (and with two samples, the curve's ends in either layout). Beyond the paper: see the module documentation's
     /// *Sample layout*.
     ComfortHalf,
 }
@@ -424,7 +424,8 @@ impl Objective<'_> {
             SampleLayout::Even => Ok(even()),
             SampleLayout::ComfortHalf => {
                 let s_c = scales(curve, self.settings.comfort_stress)?.comfort_s;
-                if !(0.0 < s_c && s_c < s_max) {
+                // Two samples are the curve's ends in either layout.
+                if !(0.0 < s_c && s_c < s_max) || n < 3 {
                     return Ok(even());
                 }
                 let inside = n.div_ceil(2);
