@@ -52,8 +52,8 @@
 //! besides the one at `s = 0`, 2 to 19 lie in the comfort range (median 5.5 over the 24
 //! curves), and each power-range term is a relative error of order one (the weight
 //! `v_comfort / v̂` cancels the normalization there). At the eight `yarn-fit` fits of 565c3a9
-//! the comfort-range terms made up 7–42 % of `g` (median 11.5 %);
-//! the rest, mostly power-range compression, is what the fits traded the comfort range for.
+//! the comfort-range terms made up 7–42 % of `g` (median 11.5 %); the rest, mostly
+//! power-range compression, is what the fits traded the comfort range for.
 //! [`SampleLayout::ComfortHalf`] puts half of the samples in the comfort range, so that the
 //! comfort range weighs as much as the power range however far the test went, with the
 //! paper's weights unchanged. Its samples at 0 and `s_max` are compression nodes'
@@ -228,8 +228,8 @@ pub enum SampleLayout {
     Even,
     /// Half of the samples (rounded up) evenly spaced in the comfort range `[0, s_comfort]`,
     /// the others in `(s_comfort, s_max]`, the last at `s_max`; evenly spaced in `[0, s_max]`
-    /// where either range is empty (and with two samples, the curve's ends in either layout). Beyond the paper: see the module documentation's
-    /// *Sample layout*.
+    /// where either range is empty (and with two samples, the curve's ends in either
+    /// layout). Beyond the paper: see the module documentation's *Sample layout*.
     ComfortHalf,
 }
 
