@@ -578,24 +578,24 @@ impl FitConfig {
             message,
             path: path.to_path_buf(),
         };
-        let local = match f.local.as_str() {
-            "levenberg-marquardt" => LocalMethod::LevenbergMarquardt,
-            "cobyla" => LocalMethod::Cobyla,
-            other => {
-                return Err(bad(format!(
-                    "[fit] local must be \"levenberg-marquardt\" or \"cobyla\", found {other:?}"
-                )));
-            }
-        };
-        let layout = match f.sample_layout.as_str() {
-            "even" => SampleLayout::Even,
-            "comfort-half" => SampleLayout::ComfortHalf,
-            other => {
-                return Err(bad(format!(
-                    "[fit] sample_layout must be \"even\" or \"comfort-half\", found {other:?}"
-                )));
-            }
-        };
+        let local = choice(
+            path,
+            "local",
+            &f.local,
+            [
+                ("levenberg-marquardt", LocalMethod::LevenbergMarquardt),
+                ("cobyla", LocalMethod::Cobyla),
+            ],
+        )?;
+        let layout = choice(
+            path,
+            "sample_layout",
+            &f.sample_layout,
+            [
+                ("even", SampleLayout::Even),
+                ("comfort-half", SampleLayout::ComfortHalf),
+            ],
+        )?;
         if f.swarm_samples < 2 || f.local_samples < 2 || f.compression_nodes < 2 {
             return Err(bad(format!(
                 "[fit] swarm_samples, local_samples and compression_nodes must be at least 2, \
@@ -644,6 +644,28 @@ impl FitConfig {
             ..FitSettings::default()
         })
     }
+}
+
+/// The value of the `[fit]` key `key` that `value` names among two `(name, value)` options;
+/// any other name is an error naming `path` and both names.
+fn choice<T>(
+    path: &Path,
+    key: &str,
+    value: &str,
+    options: [(&str, T); 2],
+) -> Result<T, ConfigError> {
+    let names = [options[0].0, options[1].0];
+    options
+        .into_iter()
+        .find(|(name, _)| *name == value)
+        .map(|(_, v)| v)
+        .ok_or_else(|| ConfigError::Invalid {
+            message: format!(
+                "[fit] {key} must be {:?} or {:?}, found {value:?}",
+                names[0], names[1]
+            ),
+            path: path.to_path_buf(),
+        })
 }
 
 /// Reads and parses the TOML file `path` (errors name it, with line and column).

@@ -258,14 +258,18 @@ fn the_comfort_half_layout_samples_the_comfort_range_with_half_the_samples() {
     let comfort = 2.0 / 0.06;
     let (f54, f63) = (100.0 * s54 * s54, 100.0 * s63 * s63);
     let s_c = s54 + (comfort - f54) / (f63 - f54) * (s63 - s54);
+    let stiff = Targets {
+        curves: [(Direction::Weft, curve(100.0))].into(),
+    };
+    // A curve that stays below the comfort stress: the whole range is comfort.
+    let soft = Targets {
+        curves: [(Direction::Weft, curve(30.0))].into(),
+    };
     for (n, inside) in [(7, 4), (20, 10), (2, 1), (3, 2)] {
-        let targets = Targets {
-            curves: [(Direction::Weft, curve(100.0))].into(),
-        };
-        let layout = |layout| {
+        let stretches = |targets: &Targets, layout| {
             Objective {
                 geometry: &geometry,
-                targets: &targets,
+                targets,
                 settings: ObjectiveSettings {
                     samples: n,
                     layout,
@@ -275,7 +279,7 @@ fn the_comfort_half_layout_samples_the_comfort_range_with_half_the_samples() {
             .stretches(Direction::Weft)
             .unwrap()
         };
-        let s = layout(SampleLayout::ComfortHalf);
+        let s = stretches(&stiff, SampleLayout::ComfortHalf);
         assert_eq!(s.len(), n);
         assert_eq!(s[0], 0.0);
         assert_eq!(*s.last().unwrap(), s_max, "n = {n}: {s:?}");
@@ -286,28 +290,14 @@ fn the_comfort_half_layout_samples_the_comfort_range_with_half_the_samples() {
             assert!((s[inside - 1] - s_c).abs() < 1e-12, "n = {n}: {s:?}");
         }
         // The paper's even layout.
-        let even = layout(SampleLayout::Even);
+        let even = stretches(&stiff, SampleLayout::Even);
         assert!(
             even.iter()
                 .enumerate()
                 .all(|(i, &x)| (x - s_max * i as f64 / (n - 1) as f64).abs() < 1e-15),
             "{even:?}"
         );
-        // A curve that stays below the comfort stress: the whole range is comfort.
-        let soft = Targets {
-            curves: [(Direction::Weft, curve(30.0))].into(),
-        };
-        let s = Objective {
-            geometry: &geometry,
-            targets: &soft,
-            settings: ObjectiveSettings {
-                samples: n,
-                layout: SampleLayout::ComfortHalf,
-                ..ObjectiveSettings::default()
-            },
-        }
-        .stretches(Direction::Weft)
-        .unwrap();
+        let s = stretches(&soft, SampleLayout::ComfortHalf);
         assert_eq!(s, even, "n = {n}");
     }
 }

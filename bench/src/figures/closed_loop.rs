@@ -90,8 +90,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     // 2026-11-30). Not investigated further; the loop checks the pipeline on the paper's
     // even samples and one swarm.
     let mut settings = super::yarn_fit::settings(ctx.quick);
-    settings.swarm_objective.layout = SampleLayout::Even;
-    settings.local_objective.layout = SampleLayout::Even;
+    settings.set_sample_layout(SampleLayout::Even);
     if let Some(swarm) = &mut settings.swarm {
         swarm.restarts = 1;
     }

@@ -485,8 +485,7 @@ pub fn settings(quick: bool) -> FitSettings {
     if let Some(swarm) = &mut s.swarm {
         swarm.restarts = RESTARTS;
     }
-    s.swarm_objective.layout = SAMPLE_LAYOUT;
-    s.local_objective.layout = SAMPLE_LAYOUT;
+    s.set_sample_layout(SAMPLE_LAYOUT);
     if quick {
         s.local_starts = 1;
         if let Some(swarm) = &mut s.swarm {

@@ -240,8 +240,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             swarm.restarts = 1;
         }
         if v.even_samples {
-            s.swarm_objective.layout = SampleLayout::Even;
-            s.local_objective.layout = SampleLayout::Even;
+            s.set_sample_layout(SampleLayout::Even);
         }
         s.swarm_objective.rest_shape = v.rest_shape;
         s.local_objective.rest_shape = v.rest_shape;

@@ -194,6 +194,14 @@ pub struct FitSettings {
     pub local_geometry: bool,
 }
 
+impl FitSettings {
+    /// Sets the sample layout of both phases' objectives ([`ObjectiveSettings::layout`]).
+    pub fn set_sample_layout(&mut self, layout: SampleLayout) {
+        self.swarm_objective.layout = layout;
+        self.local_objective.layout = layout;
+    }
+}
+
 /// Forward-difference step (normalized coordinates) of the geometric parameters' Jacobian
 /// columns in Levenberg–Marquardt ([`FitSettings::local_geometry`]): 2 % of the box,
 /// e.g. 0.012 in stretch for the bounds (0.75, 1.35).
