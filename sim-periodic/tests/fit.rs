@@ -4,8 +4,8 @@
 use sim_periodic::curves::{CurveSettings, uniaxial_curve};
 use sim_periodic::fit::{
     Bound, FitError, FitResult, FitSettings, Journal, LocalMethod, Objective, ObjectiveSettings,
-    Parameter, ParameterSpace, SampleLayout, TargetPoint, Targets, estimated_radius, fit,
-    stretched_geometry,
+    Parameter, ParameterSpace, SampleLayout, TargetPoint, Targets, comfort_end, estimated_radius,
+    fit, stretched_geometry,
 };
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel};
 use yarn_pattern::direction::Direction;
@@ -265,6 +265,13 @@ fn the_comfort_half_layout_samples_the_comfort_range_with_half_the_samples() {
     let soft = Targets {
         curves: [(Direction::Weft, curve(30.0))].into(),
     };
+    // The comfort range's end: the interpolated crossing, the last stretch when the curve
+    // never reaches the comfort stress, the first when it starts above it, none without points.
+    assert!((comfort_end(&curve(100.0), comfort).unwrap() - s_c).abs() < 1e-15);
+    assert_eq!(comfort_end(&curve(30.0), comfort), Some(s_max));
+    let above: Vec<TargetPoint> = curve(100.0)[7..].to_vec();
+    assert_eq!(comfort_end(&above, comfort), Some(above[0].s));
+    assert_eq!(comfort_end(&[], comfort), None);
     for (n, inside) in [(7, 4), (20, 10), (2, 1), (3, 2)] {
         let stretches = |targets: &Targets, layout| {
             Objective {

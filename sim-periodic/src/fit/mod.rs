@@ -49,7 +49,9 @@ use crate::curves::CurveError;
 use crate::patterns::PatternError;
 use crate::periodic::{PeriodicError, YarnModel};
 pub use journal::Journal;
-pub use objective::{Evaluation, Objective, ObjectiveSettings, Sample, SampleLayout, Solved};
+pub use objective::{
+    Evaluation, Objective, ObjectiveSettings, Sample, SampleLayout, Solved, comfort_end,
+};
 pub use parameters::{
     Bound, Parameter, ParameterSpace, estimated_radius, parameter_partial, stretched_geometry,
 };

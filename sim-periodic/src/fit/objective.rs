@@ -340,23 +340,28 @@ struct Scales {
     comfort_c: f64,
 }
 
+/// The largest stretch of `curve`'s comfort range (module documentation): where its target
+/// stress first reaches `comfort_stress` (linearly interpolated), its first stretch when it
+/// starts there, its last when it never does; `None` for an empty curve.
+pub fn comfort_end(curve: &[TargetPoint], comfort_stress: f64) -> Option<f64> {
+    let (first, last) = (curve.first()?, curve.last()?);
+    if first.sigma >= comfort_stress {
+        return Some(first.s);
+    }
+    let crossing = curve
+        .windows(2)
+        .find(|w| w[1].sigma >= comfort_stress && w[0].sigma < comfort_stress)
+        .map(|w| {
+            let t = (comfort_stress - w[0].sigma) / (w[1].sigma - w[0].sigma);
+            w[0].s + t * (w[1].s - w[0].s)
+        });
+    Some(crossing.unwrap_or(last.s))
+}
+
 fn scales(curve: &[TargetPoint], comfort_stress: f64) -> Result<Scales, FitError> {
-    // The comfort range ends where the target stress first reaches `comfort_stress`
-    // (interpolated), or at the curve's end.
-    let (Some(first), Some(last)) = (curve.first(), curve.last()) else {
+    let Some(comfort_s) = comfort_end(curve, comfort_stress) else {
         return Err(FitError::Invalid("a target curve has no points".into()));
     };
-    let mut comfort_s = last.s;
-    for w in curve.windows(2) {
-        if w[1].sigma >= comfort_stress && w[0].sigma < comfort_stress {
-            let t = (comfort_stress - w[0].sigma) / (w[1].sigma - w[0].sigma);
-            comfort_s = w[0].s + t * (w[1].s - w[0].s);
-            break;
-        }
-    }
-    if first.sigma >= comfort_stress {
-        comfort_s = first.s;
-    }
     let end = interpolate(curve, comfort_s).expect("the curve has points");
     let (comfort_sigma, comfort_c) = (end.sigma, end.c);
     // The largest values over the comfort range: its curve points and its end.
