@@ -10,8 +10,9 @@
 //! settings) once per named fabric (default: the development fabric; `all`: every shared
 //! fabric) and prints the shell and yarn fit times, the yarn fit's phases (swarm, then
 //! local search) in seconds and in objective evaluations, the yarn fit's seconds per
-//! evaluation, the final objective `g` and the comfort-range error. A fit is minutes long
-//! and deterministic, so it is timed once, not sampled.
+//! evaluation, the final objective `g` and the comfort-range error, on the fit's own samples
+//! and on the paper's even grid ([`bench::figures::yarn_fit::on_paper_grid`]). A fit is
+//! minutes long and deterministic, so it is timed once, not sampled.
 
 use bench::figures::yarn_fit::{fabrics, fit_one, select, settings};
 
@@ -29,7 +30,7 @@ fn main() -> anyhow::Result<()> {
         rayon::current_num_threads()
     );
     println!(
-        "{:<28} {:>9} {:>9} {:>9} {:>9} {:>7} {:>7} {:>9} {:>8} {:>8}",
+        "{:<28} {:>9} {:>9} {:>9} {:>9} {:>7} {:>7} {:>9} {:>8} {:>8} {:>8}",
         "fabric",
         "shell s",
         "yarn s",
@@ -39,14 +40,15 @@ fn main() -> anyhow::Result<()> {
         "local",
         "s / eval",
         "g",
-        "comfort"
+        "comfort",
+        "(paper)"
     );
     for fabric in chosen {
         let f = fit_one(fabric, &opts, &settings)?;
         let [swarm, local] = f.result.evaluations;
         let [swarm_s, local_s] = f.result.seconds;
         println!(
-            "{:<28} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>7} {:>7} {:>9.3} {:>8.4} {:>7.1}%",
+            "{:<28} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>7} {:>7} {:>9.3} {:>8.4} {:>7.1}% {:>7.1}%",
             f.name,
             f.shell_seconds,
             f.yarn_seconds,
@@ -56,7 +58,8 @@ fn main() -> anyhow::Result<()> {
             local,
             f.yarn_seconds / (swarm + local).max(1) as f64,
             f.result.evaluation.value,
-            100.0 * f.result.evaluation.comfort_error
+            100.0 * f.result.evaluation.comfort_error,
+            100.0 * f.paper_grid.comfort_error
         );
     }
     Ok(())
