@@ -129,6 +129,7 @@ use shell_fem::fabrics::{Fabric, FabricFitOptions, discover, fit_fabric};
 use shell_fem::material::{Material, Model};
 use shell_fem::measurements::BinOptions;
 use shell_fem::swatch::SwatchConfig;
+use sim_periodic::fit::targets::interpolate;
 use sim_periodic::fit::{
     Bound, Evaluation, FitResult, FitSettings, Journal, Objective, Parameter, ParameterSpace,
     SampleLayout, TargetPoint, Targets, comfort_end, estimated_radius, fit,
@@ -774,7 +775,7 @@ fn curve_charts(f: &Fitted, comfort_stress: f64) -> [LineChart; 3] {
             (0..=COMFORT_LINE_POINTS)
                 .filter_map(|i| {
                     let s = end * i as f64 / COMFORT_LINE_POINTS as f64;
-                    sim_periodic::fit::targets::interpolate(curve, s)
+                    interpolate(curve, s)
                 })
                 .map(|p| (p.s, p.sigma)),
         ));
