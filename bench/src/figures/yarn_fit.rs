@@ -157,7 +157,14 @@ pub fn spec() -> FigureSpec {
 /// The fabric the fit's settings were developed on.
 pub const DEVELOPMENT_FABRIC: &str = "acrylic-yarn-stockinette";
 
-/// Target points per direction from the shell.
+/// Target points per direction from the shell, evenly spaced over the tested range; the
+/// objective interpolates them linearly.
+///
+/// Enough in the comfort range, where the error is measured: there the 21-point curves of
+/// the eight shared fabrics differ from 401-point curves of the same shells by 0.01–0.25 %
+/// of the comfort-range maximum on average and 0.58 % at most, over 2.7–20 of their
+/// intervals (the babyredo stockinette's the fewest; throw-away probe, 200 stretches per
+/// comfort range, 2026-11-30).
 const TARGET_POINTS: usize = 21;
 
 /// The procedural pattern of a shared fabric (by the stitch in its name; the rib is 1×1).
