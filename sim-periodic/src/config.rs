@@ -528,13 +528,9 @@ impl Default for FitOptions {
             restarts: swarm.restarts,
             inertia: [swarm.inertia.0, swarm.inertia.1],
             swarm_samples: s.swarm_objective.samples,
-            local: "levenberg-marquardt".into(),
+            local: name_of(LOCAL_METHODS, s.local).into(),
             local_samples: s.local_objective.samples,
-            sample_layout: match s.local_objective.layout {
-                crate::fit::SampleLayout::Even => "even",
-                crate::fit::SampleLayout::ComfortHalf => "comfort-half",
-            }
-            .into(),
+            sample_layout: name_of(SAMPLE_LAYOUTS, s.local_objective.layout).into(),
             local_evaluations: s.local_evaluations,
             local_starts: s.local_starts,
             local_geometry: s.local_geometry,
@@ -570,32 +566,14 @@ impl FitConfig {
 
     /// The fit settings.
     pub fn settings(&self, path: &Path) -> Result<crate::fit::FitSettings, ConfigError> {
-        use crate::fit::{
-            FitSettings, LocalMethod, ObjectiveSettings, SampleLayout, SwarmSettings,
-        };
+        use crate::fit::{FitSettings, ObjectiveSettings, SwarmSettings};
         let f = &self.fit;
         let bad = |message: String| ConfigError::Invalid {
             message,
             path: path.to_path_buf(),
         };
-        let local = choice(
-            path,
-            "local",
-            &f.local,
-            [
-                ("levenberg-marquardt", LocalMethod::LevenbergMarquardt),
-                ("cobyla", LocalMethod::Cobyla),
-            ],
-        )?;
-        let layout = choice(
-            path,
-            "sample_layout",
-            &f.sample_layout,
-            [
-                ("even", SampleLayout::Even),
-                ("comfort-half", SampleLayout::ComfortHalf),
-            ],
-        )?;
+        let local = choice(path, "local", &f.local, LOCAL_METHODS)?;
+        let layout = choice(path, "sample_layout", &f.sample_layout, SAMPLE_LAYOUTS)?;
         if f.swarm_samples < 2 || f.local_samples < 2 || f.compression_nodes < 2 {
             return Err(bad(format!(
                 "[fit] swarm_samples, local_samples and compression_nodes must be at least 2, \
@@ -644,6 +622,30 @@ impl FitConfig {
             ..FitSettings::default()
         })
     }
+}
+
+/// The names of the `[fit]` key `local`.
+const LOCAL_METHODS: [(&str, crate::fit::LocalMethod); 2] = [
+    (
+        "levenberg-marquardt",
+        crate::fit::LocalMethod::LevenbergMarquardt,
+    ),
+    ("cobyla", crate::fit::LocalMethod::Cobyla),
+];
+
+/// The names of the `[fit]` key `sample_layout`.
+const SAMPLE_LAYOUTS: [(&str, crate::fit::SampleLayout); 2] = [
+    ("even", crate::fit::SampleLayout::Even),
+    ("comfort-half", crate::fit::SampleLayout::ComfortHalf),
+];
+
+/// The name of `value` among `options`.
+fn name_of<T: PartialEq>(options: [(&'static str, T); 2], value: T) -> &'static str {
+    options
+        .into_iter()
+        .find(|(_, v)| *v == value)
+        .map(|(name, _)| name)
+        .expect("every value has a name")
 }
 
 /// The value of the `[fit]` key `key` that `value` names among two `(name, value)` options;

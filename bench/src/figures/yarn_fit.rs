@@ -498,8 +498,6 @@ pub fn settings(quick: bool) -> FitSettings {
     };
     if let Some(swarm) = &mut s.swarm {
         swarm.inertia = SWARM_INERTIA;
-    }
-    if let Some(swarm) = &mut s.swarm {
         swarm.restarts = RESTARTS;
     }
     s.set_sample_layout(SAMPLE_LAYOUT);
@@ -562,7 +560,7 @@ pub fn fit_one(
         &|_| {},
     )?;
     let yarn_seconds = t.elapsed().as_secs_f64();
-    let paper_grid = on_paper_grid(&geometry, &targets, &space, settings, &result.x)?;
+    let paper_grid = on_paper_grid(&geometry, &targets, &space, settings, &result)?;
     Ok(Fitted {
         name: fabric.name.clone(),
         pattern,
@@ -575,19 +573,23 @@ pub fn fit_one(
     })
 }
 
-/// The fit's result `x` (normalized) evaluated on the paper's layout: the local search's
-/// objective ([`FitSettings::local_objective`], 20 samples per direction in full mode) with its
-/// samples evenly spaced over each target curve ([`SampleLayout::Even`], seed 002 §7.3.1),
-/// whatever layout the fit used ([`SAMPLE_LAYOUT`]). Its comfort-range error is the paper's
-/// Fig. 15 metric on the paper's samples, so fits with either layout compare on one grid. One
-/// more objective evaluation, outside the fit's time.
+/// A fit's result evaluated on the paper's layout: the local search's objective
+/// ([`FitSettings::local_objective`], 20 samples per direction in full mode) with its samples
+/// evenly spaced over each target curve ([`SampleLayout::Even`], seed 002 §7.3.1), whatever
+/// layout the fit used ([`SAMPLE_LAYOUT`]). Its comfort-range error is the paper's Fig. 15
+/// metric on the paper's samples, so fits with either layout compare on one grid. One more
+/// objective evaluation, outside the fit's time; none when the fit used the even layout (its
+/// final evaluation is this one).
 pub fn on_paper_grid(
     geometry: &Tile,
     targets: &Targets,
     space: &ParameterSpace,
     settings: &FitSettings,
-    x: &[f64],
+    result: &FitResult,
 ) -> anyhow::Result<Evaluation> {
+    if settings.local_objective.layout == SampleLayout::Even {
+        return Ok(result.evaluation.clone());
+    }
     let mut paper = settings.local_objective.clone();
     paper.layout = SampleLayout::Even;
     let objective = Objective {
@@ -595,7 +597,7 @@ pub fn on_paper_grid(
         targets,
         settings: paper,
     };
-    Ok(objective.evaluate_at(space, x)?)
+    Ok(objective.evaluate_at(space, &result.x)?)
 }
 
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {

@@ -257,7 +257,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         )?;
         let seconds = t.elapsed().as_secs_f64();
         let e = result.evaluation.clone();
-        let paper = on_paper_grid(&geometry, &targets, &space, &s, &result.x)?;
+        let paper = on_paper_grid(&geometry, &targets, &space, &s, &result)?;
         data.push_row([
             i as f64,
             e.comfort_error,

@@ -428,7 +428,8 @@ impl Objective<'_> {
         match self.settings.layout {
             SampleLayout::Even => Ok(even()),
             SampleLayout::ComfortHalf => {
-                let s_c = scales(curve, self.settings.comfort_stress)?.comfort_s;
+                let s_c = comfort_end(curve, self.settings.comfort_stress)
+                    .ok_or_else(|| FitError::Invalid("a target curve has no points".into()))?;
                 // Two samples are the curve's ends in either layout.
                 if !(0.0 < s_c && s_c < s_max) || n < 3 {
                     return Ok(even());
