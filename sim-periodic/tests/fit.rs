@@ -340,6 +340,16 @@ fn several_local_starts_keep_the_best_and_zero_is_an_error() {
         two.evaluation.value,
         one.evaluation.value
     );
+    // The result's evaluation (kept from the search, not recomputed) is its point's.
+    let local = Objective {
+        geometry: &geometry,
+        targets: &targets,
+        settings: objective.clone(),
+    };
+    for result in [&one, &two] {
+        let again = local.evaluate_at(&space, &result.x).unwrap();
+        assert_eq!(format!("{:?}", result.evaluation), format!("{again:?}"));
+    }
     let e = run(0).unwrap_err().to_string();
     assert!(e.contains("local_starts"), "{e}");
 }

@@ -476,7 +476,9 @@ pub fn fingerprint(
 /// particle swarm over the normalized box (unless `settings.swarm` is `None`), then the local
 /// method ([`FitSettings::local`]) from the swarm's best point (Levenberg–Marquardt: and from
 /// up to [`FitSettings::local_starts`]` − 1` more distinct swarm points, keeping the lowest
-/// objective), then one evaluation of the result with the local settings; with
+/// objective), and the result's evaluation with the local settings (Levenberg–Marquardt's
+/// end point is its last accepted point, whose evaluation is kept; COBYLA's is evaluated once
+/// more); with
 /// [`SwarmSettings::restarts`] all of it once per seed, keeping the lowest final objective
 /// (the result's evaluations and failures are summed over the restarts; a restart that fails
 /// fails the fit). Every swarm and COBYLA evaluation goes through `journal`
@@ -641,7 +643,7 @@ fn fit_once(
     let swarm_seconds = clock.elapsed().as_secs_f64();
 
     // Local refinement in the normalized box.
-    let (x, status, local_evaluations) = match settings.local {
+    let (x, status, local_evaluations, kept) = match settings.local {
         LocalMethod::Cobyla => {
             let cost = Cost::new(
                 objective(&settings.local_objective),
@@ -656,36 +658,42 @@ fn fit_once(
             if !error.is_empty() {
                 last_error = error;
             }
-            (x, status, cost.count.load(Ordering::Relaxed))
+            (x, status, cost.count.load(Ordering::Relaxed), None)
         }
         LocalMethod::LevenbergMarquardt => {
-            // From every start; the lowest local objective wins (the first on ties). With one
-            // start there is nothing to compare, and the result is evaluated once, below. A
-            // later start whose search fails is skipped (its error kept for the report); the
-            // first start's failure is the fit's. The starts run in parallel (each is
-            // deterministic, and the choice is made in start order afterwards).
+            // From every start; the lowest local objective wins (the first on ties). A start's
+            // end point is its last accepted point, whose evaluation the search kept; it is
+            // evaluated again only where the search could not start. A later start whose
+            // search fails is skipped (its error kept for the report); the first start's
+            // failure is the fit's. The starts run in parallel (each is deterministic, and the
+            // choice is made in start order afterwards).
             let local = objective(&settings.local_objective);
             let searched: Vec<Result<LocalRun, FitError>> = starts
                 .par_iter()
                 .map(|s| {
-                    let (x, status, count) = lm_search(&local, space, s, settings, progress)?;
-                    if starts.len() == 1 {
-                        return Ok((0.0, x, status, count, None));
-                    }
-                    let clamped: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
+                    let (x, status, count, kept) = lm_search(&local, space, s, settings, progress)?;
                     // A start whose end point cannot be evaluated loses to every other.
-                    let (g, error) = match local.evaluate_at(space, &clamped) {
-                        Ok(e) if !e.value.is_nan() => (e.value, None),
-                        Ok(_) => (f64::INFINITY, None),
-                        Err(e) => (f64::INFINITY, Some(e.to_string())),
+                    let (evaluation, error) = match kept {
+                        Some(e) => (Some(e), None),
+                        None => match local.evaluate_at(space, &x) {
+                            Ok(e) => (Some(e), None),
+                            Err(e) => (None, Some(e.to_string())),
+                        },
                     };
-                    Ok((g, x, status, count, error))
+                    let g = evaluation.as_ref().map_or(f64::INFINITY, |e| {
+                        if e.value.is_nan() {
+                            f64::INFINITY
+                        } else {
+                            e.value
+                        }
+                    });
+                    Ok((g, x, status, count, evaluation, error))
                 })
                 .collect();
-            let mut best: Option<(f64, Vec<f64>, String)> = None;
+            let mut best: Option<(f64, Vec<f64>, String, Option<Evaluation>)> = None;
             let mut total = 0;
             for (i, found) in searched.into_iter().enumerate() {
-                let (g, x, status, count, error) = match found {
+                let (g, x, status, count, evaluation, error) = match found {
                     Ok(found) => found,
                     Err(e) if i > 0 => {
                         last_error = e.to_string();
@@ -703,20 +711,30 @@ fn fit_once(
                     format!("start {} of {}: {status}", i + 1, starts.len())
                 };
                 if best.as_ref().is_none_or(|b| g < b.0) {
-                    best = Some((g, x, status));
+                    best = Some((g, x, status, evaluation));
                 }
             }
-            let (_, x, status) = best.expect("at least one start");
-            (x, status, total)
+            let (_, x, status, evaluation) = best.expect("at least one start");
+            (x, status, total, evaluation)
         }
     };
-    let x: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
+    // The result's evaluation: the winning start's where it has one and its end point lies in
+    // the box (Levenberg–Marquardt's always does), else one more evaluation.
+    let clamped: Vec<f64> = x.iter().map(|t| t.clamp(0.0, 1.0)).collect();
+    let kept = kept.filter(|_| clamped == x);
+    let x = clamped;
     let model = space.model(&x);
-    let evaluation = objective(&settings.local_objective)
-        .evaluate_at(space, &x)
-        .map_err(|e| {
-            FitError::NothingEvaluated(local_evaluations, format!("{e} (last other: {last_error})"))
-        })?;
+    let evaluation = match kept {
+        Some(e) => e,
+        None => objective(&settings.local_objective)
+            .evaluate_at(space, &x)
+            .map_err(|e| {
+                FitError::NothingEvaluated(
+                    local_evaluations,
+                    format!("{e} (last other: {last_error})"),
+                )
+            })?,
+    };
     Ok(FitResult {
         model,
         values: space.values(&x),
@@ -731,10 +749,17 @@ fn fit_once(
     })
 }
 
-/// One Levenberg–Marquardt start's outcome: its end point's local objective (0 when it is the
-/// only start), the end point, how it stopped, its iterations, and why its end point could not
-/// be evaluated, if it could not.
-type LocalRun = (f64, Vec<f64>, String, usize, Option<String>);
+/// One Levenberg–Marquardt start's outcome: its end point's local objective, the end point,
+/// how it stopped, its evaluations, the end point's evaluation, and why the end point could
+/// not be evaluated, if it could not.
+type LocalRun = (
+    f64,
+    Vec<f64>,
+    String,
+    usize,
+    Option<Evaluation>,
+    Option<String>,
+);
 
 /// COBYLA from `start`; returns the best point and how it stopped.
 fn cobyla_search(
@@ -788,14 +813,15 @@ fn cobyla_search(
 /// of the whole objective (rest shape included), and Broyden's update corrects only the other
 /// columns (`Δx` with its geometric entries zeroed on the right). Both are computed where
 /// Levenberg–Marquardt accepts a point (its `commit`), not at trial points it rejects. Returns
-/// the last accepted point, how it stopped and the evaluations used.
+/// the last accepted point, how it stopped, the evaluations used and the last accepted point's
+/// evaluation (`None` where the search could not start).
 fn lm_search(
     objective: &Objective<'_>,
     space: &ParameterSpace,
     start: &[f64],
     settings: &FitSettings,
     progress: &(dyn Fn(&Progress) + Sync),
-) -> Result<(Vec<f64>, String, usize), FitError> {
+) -> Result<(Vec<f64>, String, usize, Option<Evaluation>), FitError> {
     use nalgebra::{DMatrix, DVector};
     const N: usize = Parameter::ALL.len();
     let n = start.len();
@@ -831,9 +857,9 @@ fn lm_search(
     };
     let count = std::cell::Cell::new(0);
     let rest_shape = objective.settings.rest_shape;
-    // Trial points: residuals only; the point, its residuals and its equilibria are kept for
-    // `commit` (the Jacobian handed back is a placeholder).
-    type Trial = (DVector<f64>, DVector<f64>, Solved);
+    // Trial points: residuals only; the point, its residuals, its evaluation and its equilibria
+    // are kept for `commit` (the Jacobian handed back is a placeholder).
+    type Trial = (DVector<f64>, DVector<f64>, Evaluation, Solved);
     let mut best = f64::INFINITY;
     let mut eval = |p: &[f64; N]| -> Result<solver::LmEval<Trial>, FitError> {
         let (evaluation, solved) = objective.solve_at(space, &p[..n], None)?;
@@ -848,7 +874,7 @@ fn lm_search(
         });
         let placeholder = DMatrix::zeros(r.len(), N);
         let x = DVector::from_column_slice(&p[..n]);
-        Ok((r.clone(), placeholder, (x, r, solved)))
+        Ok((r.clone(), placeholder, (x, r, evaluation, solved)))
     };
     // Accepted points (and the start) get their Jacobian: the exact one of the frozen rest
     // tile (geometric columns zero), the geometric columns, then the Broyden correction of the
@@ -858,7 +884,11 @@ fn lm_search(
     let mut correction: Option<DMatrix<f64>> = None;
     let mut previous: Option<(DVector<f64>, DVector<f64>, DMatrix<f64>)> = None;
     let differenced_columns: Vec<usize> = (0..n).filter(|&k| differenced(k)).collect();
-    let mut commit = |(x, r, solved): Trial, jacobian: &mut DMatrix<f64>| -> Result<(), FitError> {
+    // The last accepted point and its evaluation: the search's end point.
+    let mut accepted: Option<(DVector<f64>, Evaluation)> = None;
+    let mut commit = |(x, r, evaluation, solved): Trial,
+                      jacobian: &mut DMatrix<f64>|
+     -> Result<(), FitError> {
         // The geometric parameters' columns (zero in the frozen Jacobian): forward differences,
         // towards the box's inside, or away from it when that point has no equilibrium; a
         // column stays zero when neither has one. Each is a whole evaluation, independent of
@@ -921,6 +951,7 @@ fn lm_search(
             }
         }
         jacobian.columns_mut(0, n).copy_from(&(&frozen + &*b));
+        accepted = Some((x.clone(), evaluation));
         previous = Some((x, r, frozen));
         Ok(())
     };
@@ -941,17 +972,22 @@ fn lm_search(
                 start.to_vec(),
                 format!("Levenberg–Marquardt could not start ({e}); the start point is kept"),
                 count.get(),
+                None,
             ));
         }
         Err(other) => return Err(FitError::Optimizer(other.to_string())),
     };
+    let x = outcome.p[..n].to_vec();
+    // The end point is the last accepted one (`LmOutcome::p`); checked, not assumed.
+    let kept = accepted.and_then(|(p, e)| (p.as_slice() == x.as_slice()).then_some(e));
     Ok((
-        outcome.p[..n].to_vec(),
+        x,
         format!(
             "Levenberg–Marquardt: {} after {} iterations",
             outcome.termination, outcome.iterations
         ),
         count.get(),
+        kept,
     ))
 }
 
