@@ -28,6 +28,10 @@ use sim_periodic::curves::{CurveSettings, uniaxial_curve};
 use sim_periodic::database::{DatabaseSettings, generate, relax_period, relax_reference};
 use yarn_pattern::pyp::{read_pyp, write_pyp};
 
+/// `fit` warns about a direction with fewer comfort-range samples than this: its part of the
+/// comfort-range error rests on one sample or none.
+const FEW_COMFORT_SAMPLES: usize = 2;
+
 #[derive(Parser)]
 #[command(
     name = "sim-periodic",
@@ -485,6 +489,7 @@ fn fit(path: &Path) -> Result<()> {
         })
         .collect();
     let e = &result.evaluation;
+    let comfort_samples = e.comfort_samples();
     // With geometric parameters the model belongs to the stretched input geometry.
     let fitted_geometry = if result.geometry_stretch != [1.0, 1.0] {
         let file = config.out.join("fitted-geometry.pyp");
@@ -505,6 +510,7 @@ fn fit(path: &Path) -> Result<()> {
         "comfort_error": e.comfort_error,
         "power_error": e.power_error,
         "compression_error": e.compression_error,
+        "comfort_samples": comfort_samples.iter().map(|(d, n)| (d.name().to_string(), json!(n))).collect::<serde_json::Map<_, _>>(),
         "rest_stress_n_per_m": [e.rest_stress[(0, 0)], e.rest_stress[(1, 0)], e.rest_stress[(0, 1)], e.rest_stress[(1, 1)]],
         "swarm_best": result.swarm_best.as_ref().map(|(x, g)| json!({"normalized": x, "objective": g})),
         "evaluations": { "swarm": result.evaluations[0], "local": result.evaluations[1] },
@@ -531,13 +537,25 @@ fn fit(path: &Path) -> Result<()> {
     )?;
     println!(
         "fit in {seconds:.1} s ({} swarm + {} local evaluations, {resumed} from the journal): \
-         comfort-range error {:.2} %, objective {:.3e} -> {}",
+         comfort-range error {:.2} % over {} samples, objective {:.3e} -> {}",
         result.evaluations[0],
         result.evaluations[1],
         100.0 * e.comfort_error,
+        comfort_samples.iter().map(|(_, n)| n).sum::<usize>(),
         e.value,
         config.out.join("fit.json").display()
     );
+    for (d, n) in comfort_samples
+        .iter()
+        .filter(|(_, n)| *n < FEW_COMFORT_SAMPLES)
+    {
+        eprintln!(
+            "warning: {n} of the {} samples with s > 0 lie in its comfort range, so the \
+             comfort-range error rests on {n}; sample_layout = \"comfort-half\" puts half of \
+             the samples there",
+            d.name()
+        );
+    }
     for (b, v) in space.free.iter().zip(&result.values) {
         println!("  {:18} {v:.6e}", b.parameter.name());
     }

@@ -64,8 +64,8 @@ fn a_fit_killed_mid_swarm_resumes_to_the_uninterrupted_result() {
     }
 
     // Uninterrupted.
-    let status = bin().arg("fit").arg(dir.join("a.toml")).status().unwrap();
-    assert!(status.success());
+    let uninterrupted = bin().arg("fit").arg(dir.join("a.toml")).output().unwrap();
+    assert!(uninterrupted.status.success());
     let swarm_total = 6 * (3 + 1);
 
     // Killed once a few swarm evaluations are journaled, then rerun.
@@ -107,6 +107,26 @@ fn a_fit_killed_mid_swarm_resumes_to_the_uninterrupted_result() {
     for key in ["parameters", "objective", "comfort_error", "swarm_best"] {
         assert_eq!(a[key], b[key], "{key} differs after the resume");
     }
+    // The comfort-range samples: those of the written curve with s > 0 in the comfort range,
+    // and a warning where fewer than two.
+    let curves = std::fs::read_to_string(dir.join("out-a").join("fitted-curves.csv")).unwrap();
+    let counted = curves
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|f| f[0] == "weft" && f[1].parse::<f64>().unwrap() > 0.0 && f[6] == "true")
+        .count();
+    assert_eq!(
+        a["comfort_samples"]["weft"], counted,
+        "{}",
+        a["comfort_samples"]
+    );
+    let stderr = String::from_utf8_lossy(&uninterrupted.stderr);
+    assert_eq!(
+        stderr.contains("warning: ") && stderr.contains("weft samples"),
+        counted < 2,
+        "{counted} comfort-range samples: {stderr}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

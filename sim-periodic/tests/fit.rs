@@ -3,9 +3,9 @@
 
 use sim_periodic::curves::{CurveSettings, uniaxial_curve};
 use sim_periodic::fit::{
-    Bound, FitError, FitResult, FitSettings, Journal, LocalMethod, Objective, ObjectiveSettings,
-    Parameter, ParameterSpace, SampleLayout, TargetPoint, Targets, comfort_end, estimated_radius,
-    fit, stretched_geometry,
+    Bound, Evaluation, FitError, FitResult, FitSettings, Journal, LocalMethod, Objective,
+    ObjectiveSettings, Parameter, ParameterSpace, Sample, SampleLayout, TargetPoint, Targets,
+    comfort_end, estimated_radius, fit, stretched_geometry,
 };
 use sim_periodic::periodic::{EquilibriumSettings, YarnModel};
 use yarn_pattern::direction::Direction;
@@ -307,6 +307,45 @@ fn the_comfort_half_layout_samples_the_comfort_range_with_half_the_samples() {
         let s = stretches(&soft, SampleLayout::ComfortHalf);
         assert_eq!(s, even, "n = {n}");
     }
+}
+
+/// An evaluation's comfort-range samples are counted per direction, in sample order, without
+/// the unstretched sample and with a direction that has none.
+#[test]
+fn comfort_samples_are_counted_per_direction() {
+    let sample = |direction, s: f64, comfort| Sample {
+        direction,
+        target: TargetPoint {
+            s,
+            c: 0.0,
+            sigma: 10.0 * s,
+        },
+        c: 0.0,
+        sigma: 10.0 * s,
+        comfort,
+        stretch_term: 0.0,
+        compression_term: 0.0,
+    };
+    let evaluation = Evaluation {
+        value: 0.0,
+        samples: vec![
+            sample(Direction::Weft, 0.0, true),
+            sample(Direction::Weft, 0.1, true),
+            sample(Direction::Weft, 0.2, true),
+            sample(Direction::Weft, 0.3, false),
+            sample(Direction::Warp, 0.0, true),
+            sample(Direction::Warp, 0.5, false),
+        ],
+        comfort_error: 0.0,
+        power_error: 0.0,
+        compression_error: 0.0,
+        rest_stress: nalgebra::Matrix2::zeros(),
+        iterations: 0,
+    };
+    assert_eq!(
+        evaluation.comfort_samples(),
+        vec![(Direction::Weft, 2), (Direction::Warp, 0)]
+    );
 }
 
 /// Levenberg–Marquardt from several distinct swarm points keeps the lowest objective, and

@@ -290,6 +290,27 @@ pub struct Evaluation {
     pub iterations: usize,
 }
 
+impl Evaluation {
+    /// The samples the comfort-range error is taken over (`0 < s`, in the comfort range), per
+    /// direction, in sample order (a direction without any: 0). With the paper's even layout
+    /// a target whose comfort range ends inside its first sample interval has none there.
+    pub fn comfort_samples(&self) -> Vec<(Direction, usize)> {
+        let mut out: Vec<(Direction, usize)> = Vec::new();
+        for p in &self.samples {
+            if out.last().is_none_or(|(d, _)| *d != p.direction) {
+                out.push((p.direction, 0));
+            }
+            if let Some(last) = out.last_mut()
+                && p.comfort
+                && p.target.s > 0.0
+            {
+                last.1 += 1;
+            }
+        }
+        out
+    }
+}
+
 /// A sample's Jacobian row: `(dσ/dx, dc/dx, stretch factor, compression factor)`.
 type Row = (Vec<f64>, Vec<f64>, f64, f64);
 
