@@ -550,9 +550,9 @@ fn fit(path: &Path) -> Result<()> {
         .filter(|(_, n)| *n < FEW_COMFORT_SAMPLES)
     {
         eprintln!(
-            "warning: {n} of the {} samples with s > 0 lie in its comfort range, so the \
-             comfort-range error rests on {n}; sample_layout = \"comfort-half\" puts half of \
-             the samples there",
+            "warning: the {} comfort range holds {n} of the samples with s > 0, so its part of \
+             the comfort-range error rests on {n}; sample_layout = \"comfort-half\" puts half \
+             of the samples there",
             d.name()
         );
     }

@@ -20,7 +20,7 @@
 use anyhow::Context;
 use rod::stretch::StretchLaw;
 use rod::yarn::YarnMaterial;
-use sim_periodic::fit::{Evaluation, Journal, Objective, SampleLayout, TargetPoint, Targets, fit};
+use sim_periodic::fit::{Journal, Objective, SampleLayout, TargetPoint, Targets, fit};
 use sim_periodic::patterns::Pattern;
 use sim_periodic::periodic::YarnModel;
 use sim_persistent::experiment::uniaxial::{Pull, UniaxialRun};
@@ -29,6 +29,7 @@ use yarn_pattern::direction::Direction;
 use super::cross_method::{
     PersistentLayout, at, persistent_layout, persistent_test, rest_tile, shell_curves, yarn,
 };
+use super::yarn_fit::comfort_counts;
 use crate::plot::{LineChart, Series, save_side_by_side};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table, percent};
 
@@ -147,8 +148,6 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     .evaluate_at(&space, &result.x)
     .context("the fitted yarn on the comfort-half samples")?;
     progress.inc(1);
-    let comfort_samples =
-        |e: &Evaluation| -> usize { e.comfort_samples().iter().map(|(_, n)| n).sum() };
     // 5. Recovered against known.
     let known_values: Vec<f64> = space.free.iter().map(|b| b.parameter.get(&base)).collect();
     let names: Vec<&str> = space.free.iter().map(|b| b.parameter.name()).collect();
@@ -249,12 +248,12 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             "yarn fit".into(),
             format!(
                 "comfort-range error against the shell targets {} on the fit's even samples \
-                 ({} in the comfort range), {} with half of them there ({}); {} + {} \
+                 ({} of them in the comfort range), {} with half of them there ({}); {} + {} \
                  evaluations",
                 percent(result.evaluation.comfort_error),
-                comfort_samples(&result.evaluation),
+                comfort_counts(&result.evaluation),
                 percent(resolved.comfort_error),
-                comfort_samples(&resolved),
+                comfort_counts(&resolved),
                 result.evaluations[0],
                 result.evaluations[1]
             ),
@@ -275,7 +274,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             "recovered": result.values,
             "resimulation_errors": errors,
             "comfort_error": [result.evaluation.comfort_error, resolved.comfort_error],
-            "comfort_samples": [comfort_samples(&result.evaluation), comfort_samples(&resolved)],
+            "comfort_samples": [comfort_counts(&result.evaluation), comfort_counts(&resolved)],
         }),
         data,
     })
