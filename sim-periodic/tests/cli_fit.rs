@@ -121,6 +121,7 @@ fn a_fit_killed_mid_swarm_resumes_to_the_uninterrupted_result() {
         "{}",
         a["comfort_samples"]
     );
+    eprintln!("{counted} weft comfort-range samples");
     let stderr = String::from_utf8_lossy(&uninterrupted.stderr);
     assert_eq!(
         stderr.contains("warning: the weft comfort range"),

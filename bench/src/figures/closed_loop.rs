@@ -20,7 +20,7 @@
 use anyhow::Context;
 use rod::stretch::StretchLaw;
 use rod::yarn::YarnMaterial;
-use sim_periodic::fit::{Journal, Objective, SampleLayout, TargetPoint, Targets, fit};
+use sim_periodic::fit::{Journal, SampleLayout, TargetPoint, Targets, fit};
 use sim_periodic::patterns::Pattern;
 use sim_periodic::periodic::YarnModel;
 use sim_persistent::experiment::uniaxial::{Pull, UniaxialRun};
@@ -29,7 +29,7 @@ use yarn_pattern::direction::Direction;
 use super::cross_method::{
     PersistentLayout, at, persistent_layout, persistent_test, rest_tile, shell_curves, yarn,
 };
-use super::yarn_fit::comfort_counts;
+use super::yarn_fit::{comfort_counts, on_layout};
 use crate::plot::{LineChart, Series, save_side_by_side};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table, percent};
 
@@ -138,14 +138,14 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     .context("yarn fit")?;
     // The comfort range ends inside the first target interval, so the fit's even samples put
     // one or none in it: the error is also measured with half of the samples there.
-    let mut resolved = settings.local_objective.clone();
-    resolved.layout = SampleLayout::ComfortHalf;
-    let resolved = Objective {
-        geometry: &geometry,
-        targets: &targets,
-        settings: resolved,
-    }
-    .evaluate_at(&space, &result.x)
+    let resolved = on_layout(
+        &geometry,
+        &targets,
+        &space,
+        &settings,
+        &result,
+        SampleLayout::ComfortHalf,
+    )
     .context("the fitted yarn on the comfort-half samples")?;
     progress.inc(1);
     // 5. Recovered against known.

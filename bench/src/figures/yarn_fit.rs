@@ -145,8 +145,8 @@ use shell_fem::measurements::BinOptions;
 use shell_fem::swatch::SwatchConfig;
 use sim_periodic::fit::targets::interpolate;
 use sim_periodic::fit::{
-    Bound, Evaluation, FitResult, FitSettings, Journal, Objective, Parameter, ParameterSpace,
-    SampleLayout, TargetPoint, Targets, comfort_end, estimated_radius, fit,
+    Bound, Evaluation, FitResult, FitSettings, Journal, Objective, ObjectiveSettings, Parameter,
+    ParameterSpace, SampleLayout, TargetPoint, Targets, comfort_end, estimated_radius, fit,
 };
 use sim_periodic::patterns::Pattern;
 use sim_periodic::periodic::YarnModel;
@@ -591,9 +591,8 @@ pub fn fit_one(
 /// ([`FitSettings::local_objective`], 20 samples per direction in full mode) with its samples
 /// evenly spaced over each target curve ([`SampleLayout::Even`], seed 002 §7.3.1), whatever
 /// layout the fit used ([`SAMPLE_LAYOUT`]). Its comfort-range error is the paper's Fig. 15
-/// metric on the paper's samples, so fits with either layout compare on one grid. One more
-/// objective evaluation, outside the fit's time; none when the fit used the even layout (its
-/// final evaluation is this one).
+/// metric on the paper's samples, so fits with either layout compare on one grid
+/// ([`on_layout`]).
 pub fn on_paper_grid(
     geometry: &Tile,
     targets: &Targets,
@@ -601,15 +600,37 @@ pub fn on_paper_grid(
     settings: &FitSettings,
     result: &FitResult,
 ) -> anyhow::Result<Evaluation> {
-    if settings.local_objective.layout == SampleLayout::Even {
+    on_layout(
+        geometry,
+        targets,
+        space,
+        settings,
+        result,
+        SampleLayout::Even,
+    )
+}
+
+/// A fit's result evaluated with the local search's objective on the sample layout `layout`:
+/// one more objective evaluation, outside the fit's time; none when the fit's local search
+/// used `layout` (its final evaluation is this one).
+pub fn on_layout(
+    geometry: &Tile,
+    targets: &Targets,
+    space: &ParameterSpace,
+    settings: &FitSettings,
+    result: &FitResult,
+    layout: SampleLayout,
+) -> anyhow::Result<Evaluation> {
+    if settings.local_objective.layout == layout {
         return Ok(result.evaluation.clone());
     }
-    let mut paper = settings.local_objective.clone();
-    paper.layout = SampleLayout::Even;
     let objective = Objective {
         geometry,
         targets,
-        settings: paper,
+        settings: ObjectiveSettings {
+            layout,
+            ..settings.local_objective.clone()
+        },
     };
     Ok(objective.evaluate_at(space, &result.x)?)
 }

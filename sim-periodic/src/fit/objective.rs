@@ -267,6 +267,15 @@ pub struct Sample {
     pub compression_term: f64,
 }
 
+impl Sample {
+    /// Whether [`Evaluation::comfort_error`] averages over this sample: stretched (`0 < s`;
+    /// at `s = 0` targets and a stress-free rest state are both zero by construction) and in
+    /// the comfort range.
+    pub fn in_comfort_error(&self) -> bool {
+        self.comfort && self.target.s > 0.0
+    }
+}
+
 /// The objective at one yarn model.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Evaluation {
@@ -291,7 +300,7 @@ pub struct Evaluation {
 }
 
 impl Evaluation {
-    /// The samples the comfort-range error is taken over (`0 < s`, in the comfort range), per
+    /// The samples the comfort-range error is taken over ([`Sample::in_comfort_error`]), per
     /// direction, in sample order (a direction without any: 0). With the paper's even layout
     /// a target whose comfort range ends inside its first sample interval has none there.
     pub fn comfort_samples(&self) -> Vec<(Direction, usize)> {
@@ -301,8 +310,7 @@ impl Evaluation {
                 out.push((p.direction, 0));
             }
             if let Some(last) = out.last_mut()
-                && p.comfort
-                && p.target.s > 0.0
+                && p.in_comfort_error()
             {
                 last.1 += 1;
             }
@@ -829,14 +837,14 @@ impl Objective<'_> {
                 .filter(|p| p.s <= scales.comfort_s)
                 .map(|p| p.sigma)
                 .fold(scales.comfort_sigma, f64::max);
-            // The unstretched sample is left out: there both the targets and a stress-free
-            // rest state are zero by construction, and it would only dilute the mean.
+            // The unstretched sample is left out of both ([`Sample::in_comfort_error`]): it
+            // would only dilute the mean.
             for p in samples
                 .iter()
                 .filter(|p| p.direction == d && p.target.s > 0.0)
             {
                 let e = (p.sigma - p.target.sigma).abs() / max_comfort;
-                if p.comfort {
+                if p.in_comfort_error() {
                     comfort.0 += e;
                     comfort.1 += 1;
                     compression += (p.c - p.target.c).abs();
