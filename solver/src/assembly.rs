@@ -422,7 +422,8 @@ impl Assembler {
                 problem.n_stencils()
             )));
         }
-        let changed = (0..n_stencils).into_par_iter().position_first(|k| {
+        // Serial: a comparison of a few thousand indices, far cheaper than waking the pool.
+        let changed = (0..n_stencils).position(|k| {
             problem.stencil_dofs(k)
                 != &self.stencil_dofs[self.stencil_offsets[k]..self.stencil_offsets[k + 1]]
         });
