@@ -31,6 +31,7 @@
 //! max_stretch = 0.5
 //! points = 11
 //! exact_slope = false           # true: Newton steps on c with the exact dσ_c/dc
+//! compression_dof = true        # weft and warp: c as a DOF of one Newton solve per point
 //!
 //! [database]                    # `database`: ΔQ over a strain grid
 //! sx = { min = -0.2, max = 1.0, n = 9 }   # or an explicit list: sx = [-0.2, 0.0, 0.5]
@@ -198,6 +199,10 @@ pub struct CurveConfig {
     /// ([`crate::curves::CurveSettings::exact_slope`]; default `false`).
     #[serde(default)]
     pub exact_slope: bool,
+    /// Along weft and warp, one Newton solve per point with the compression as a DOF
+    /// ([`crate::curves::CurveSettings::compression_dof`]; default `true`).
+    #[serde(default = "yes")]
+    pub compression_dof: bool,
 }
 
 impl Default for CurveConfig {
@@ -207,6 +212,7 @@ impl Default for CurveConfig {
             max_stretch: default_max_stretch(),
             points: default_points(),
             exact_slope: false,
+            compression_dof: true,
         }
     }
 }
@@ -781,6 +787,15 @@ mod tests {
         assert!(!parse(""));
         assert!(parse("exact_slope = true\n"));
         let err = with_section("curve", "exact_slope = 1\n").unwrap_err();
+        assert!(err.to_string().contains("x.toml"), "{err}");
+    }
+
+    #[test]
+    fn the_compression_dof_is_on_unless_switched_off() {
+        let parse = |body: &str| with_section("curve", body).unwrap().curve.compression_dof;
+        assert!(parse(""));
+        assert!(!parse("compression_dof = false\n"));
+        let err = with_section("curve", "compression_dof = \"no\"\n").unwrap_err();
         assert!(err.to_string().contains("x.toml"), "{err}");
     }
 }

@@ -167,6 +167,7 @@ fn curve(path: &Path) -> Result<()> {
     let settings = CurveSettings {
         equilibrium: s.config.equilibrium(),
         exact_slope: s.config.curve.exact_slope,
+        compression_dof: s.config.curve.compression_dof,
         ..CurveSettings::default()
     };
     let t = Instant::now();

@@ -20,7 +20,7 @@ pub fn spec() -> FigureSpec {
     FigureSpec {
         name: "periodic-time-vs-error",
         title: "Periodic tile: solve time against stress error",
-        shows: "wall time of a weft curve (3 points, each a root-find over equilibrium solves) against the relative error of σ_s at s = 0.2 vs the finest setting of each sweep: vertices per loop (generated stockinette), Simpson intervals and Newton tolerance (real stockinette)",
+        shows: "wall time of a weft curve (3 points, each one Newton solve with the compression as a DOF, finished by a root-find where its orthogonal stress is above the root-find's tolerance) against the relative error of σ_s at s = 0.2 vs the finest setting of each sweep: vertices per loop (generated stockinette), Simpson intervals and Newton tolerance (real stockinette)",
         paper: "our study (no paper figure): where accuracy is bought and what it costs",
         guarded: false,
         run,

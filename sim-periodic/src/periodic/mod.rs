@@ -33,8 +33,10 @@
 //! | `stress.rs` | [`PeriodicTile::stress`] |
 //! | `filter.rs` | the collision filter ([`Problem::max_step`]) |
 //! | `solve.rs` | [`initial_dofs`], [`EquilibriumSettings`], [`Equilibrium`], [`solve_equilibrium`] |
+//! | `compression.rs` | [`CompressedTile`], [`solve_compressed`]: a uniaxial point with its compression as a DOF |
 
 mod bent;
+mod compression;
 mod constraints;
 mod contacts;
 mod filter;
@@ -43,6 +45,7 @@ mod sensitivity;
 mod solve;
 mod stress;
 
+pub use compression::{CompressedTile, along_tile_axis, solve_compressed};
 pub use contacts::ContactPair;
 pub use model::{PeriodicError, YarnModel};
 pub use sensitivity::{Partial, equilibrium_problem, stress_sensitivities};

@@ -102,7 +102,7 @@ pub struct Equilibrium {
 }
 
 /// How much wider the pair search is when a solve starts over (see [`solve_equilibrium`]).
-const RESTART_MARGIN_FACTOR: f64 = 2.0;
+pub(super) const RESTART_MARGIN_FACTOR: f64 = 2.0;
 
 /// Solves for the equilibrium of `tile` under `coarse`, starting from `start` (or the tile's
 /// rest state), rebuilding the contact pairs until no pair outside the problem comes within
@@ -237,7 +237,7 @@ fn solve_under(
 }
 
 /// The sorted union of two sorted pair lists.
-fn union(a: &[ContactPair], b: &[ContactPair]) -> Vec<ContactPair> {
+pub(super) fn union(a: &[ContactPair], b: &[ContactPair]) -> Vec<ContactPair> {
     let mut out: Vec<ContactPair> = a.iter().chain(b).copied().collect();
     out.sort_unstable();
     out.dedup();

@@ -6,7 +6,7 @@
 use sim_periodic::coarse::Coarse;
 use sim_periodic::fit::{Objective, ObjectiveSettings, TargetPoint, Targets};
 use sim_periodic::periodic::{PeriodicTile, YarnModel, initial_dofs};
-use solver::Assembler;
+use solver::{Assembler, Problem};
 use yarn_pattern::direction::Direction;
 use yarn_pattern::tile::Tile;
 
@@ -41,24 +41,37 @@ pub fn assert_assembled_derivatives(tile: &Tile, model: YarnModel, coarse: Coars
     let pairs = PeriodicTile::find_pairs(tile, &model, &coarse, &x, 1.5).unwrap();
     assert!(pairs.len() > 100, "contacts expected in a knit tile");
     let problem = PeriodicTile::new(tile, model, coarse, pairs).unwrap();
-    let mut asm = Assembler::new(&problem).unwrap();
-    let a = asm.assemble(&problem, &x, false).unwrap();
+    let n = tile.n_vertices();
+    assert_problem_derivatives(&problem, &x, tile.radius, |i| i < 3 * n, stride);
+}
+
+/// [`assert_assembled_derivatives`] for any tile problem at `x`: `length(i)` tells the DOFs
+/// that are lengths (m, step `1e-6 radius`) from angles (rad, step `1e-6`); every `stride`-th
+/// Hessian column and the last one are checked.
+pub fn assert_problem_derivatives<P: Problem>(
+    problem: &P,
+    x: &[f64],
+    radius: f64,
+    length: impl Fn(usize) -> bool,
+    stride: usize,
+) {
+    let mut asm = Assembler::new(problem).unwrap();
+    let a = asm.assemble(problem, x, false).unwrap();
     assert!(a.energy.is_finite());
     let gradient = a.gradient.to_vec();
     // The assembler stores the lower triangle of the symmetric Hessian.
     let lower = a.hessian.to_dense();
     let hessian = |i: usize, j: usize| if i >= j { lower[(i, j)] } else { lower[(j, i)] };
     // Positions are in m (~1e-3), twists in rad: a step per kind.
-    let n = tile.n_vertices();
-    let step = |i: usize| if i < 3 * n { 1e-6 * tile.radius } else { 1e-6 };
+    let step = |i: usize| if length(i) { 1e-6 * radius } else { 1e-6 };
     let gmax = gradient.iter().fold(0.0f64, |m, g| m.max(g.abs()));
-    let mut y = x.clone();
+    let mut y = x.to_vec();
     for i in 0..x.len() {
         let h = step(i);
         y[i] = x[i] + h;
-        let ep = asm.energy(&problem, &y).unwrap();
+        let ep = asm.energy(problem, &y).unwrap();
         y[i] = x[i] - h;
-        let em = asm.energy(&problem, &y).unwrap();
+        let em = asm.energy(problem, &y).unwrap();
         y[i] = x[i];
         let fd = (ep - em) / (2.0 * h);
         assert!(
@@ -70,19 +83,20 @@ pub fn assert_assembled_derivatives(tile: &Tile, model: YarnModel, coarse: Coars
     let hmax = (0..x.len())
         .map(|i| hessian(i, i).abs())
         .fold(0.0, f64::max);
-    for j in (0..x.len()).step_by(stride) {
+    let columns = (0..x.len()).step_by(stride).chain([x.len() - 1]);
+    for j in columns {
         let h = step(j);
         y[j] = x[j] + h;
-        let gp = asm.gradient(&problem, &y).unwrap().1.to_vec();
+        let gp = asm.gradient(problem, &y).unwrap().1.to_vec();
         y[j] = x[j] - h;
-        let gm = asm.gradient(&problem, &y).unwrap().1.to_vec();
+        let gm = asm.gradient(problem, &y).unwrap().1.to_vec();
         y[j] = x[j];
         for i in 0..x.len() {
             let fd = (gp[i] - gm[i]) / (2.0 * h);
-            let scale = if (i < 3 * n) == (j < 3 * n) {
+            let scale = if length(i) == length(j) {
                 hmax
             } else {
-                hmax * tile.radius
+                hmax * radius
             };
             assert!(
                 (fd - hessian(i, j)).abs() <= 1e-5 * scale,

@@ -1,0 +1,301 @@
+//! The tile under a uniaxial map along a tile axis, with the compression `c` as one more DOF.
+//!
+//! Under `F₂ = (1 + s) u uᵀ + (1 − c) v vᵀ` the stress orthogonal to the stretch is
+//! `σ_c = vᵀPv = −(1/A) ∂E/∂c` at fixed fluctuations (`∂F₂/∂c = −v vᵀ`, [`PeriodicTile::stress`]).
+//! So the zero-orthogonal-stress compression of a uniaxial curve point
+//! ([`crate::curves`]) is the stationarity in `c` of the energy, and one Newton solve of
+//! `E(ũ, θ, c)` over the fluctuations, the twists and `c` reaches it, instead of a root-find
+//! over several solves at fixed `c`. The positions `x = F(c) Y + ũ` are affine in `c`, so every
+//! stencil's local vector is `q(c) = q(c₀) + (c − c₀) d` with `d_i = −v (v·Y_i)` for its point
+//! positions and 0 for its twists, and the chain rule is exact:
+//!
+//! ```text
+//! ∂E_k/∂c = g·d,    ∂²E_k/∂c ∂q = H d,    ∂²E_k/∂c² = dᵀ H d.
+//! ```
+//!
+//! **Why along a tile axis only.** The no-sliding rows `ũ · (F N) = 0` (seed 004 Eq. 3) are
+//! linear in `ũ` with coefficients `F N`. Along weft and warp `F` is diagonal, so `F N` is
+//! parallel to `N` whatever `c` is, and the rows (homogeneous, each scaled by its largest
+//! entry in the solver) do not depend on `c`: the problem keeps the linear constraints the
+//! constrained Newton solver takes. Along the bias `F N` turns with `c`, the rows become
+//! bilinear in `c` and `ũ`, and that direction keeps the root-find.
+//!
+//! The DOF is `q_c = ℓ c` with `ℓ = √(pₓ p_y)`, a length of the tile's size, so that its
+//! gradient `−ℓ σ_c` is a force like the other DOFs' and its Hessian entry `ℓ² ∂²Ψ/∂c²`
+//! a stiffness of their order (the solver's regularizing shifts and tolerances are shared).
+
+use super::{
+    ContactPair, Equilibrium, EquilibriumSettings, PeriodicError, PeriodicTile, YarnModel,
+};
+use crate::coarse::Coarse;
+use nalgebra::Vector3;
+use rod::contact::closest_points;
+use solver::{LinearConstraints, Problem, minimize_constrained};
+use yarn_pattern::tile::Tile;
+
+/// Largest local vector of a tile stencil (a contact pair: 4 points).
+const MAX_LOCAL: usize = 12;
+
+/// Whether the uniaxial map at `angle` stretches along a tile axis (weft or warp), where the
+/// no-sliding rows do not depend on the compression (module documentation).
+pub fn along_tile_axis(angle: f64) -> bool {
+    angle.sin().abs() < 1e-12 || angle.cos().abs() < 1e-12
+}
+
+/// [`PeriodicTile`] under `Coarse::uniaxial(s, c, angle)` with `ℓ c` as its last DOF (module
+/// documentation). Flat only.
+pub struct CompressedTile<'t> {
+    base: PeriodicTile<'t>,
+    /// The compression the base problem was built at.
+    c0: f64,
+    /// `ℓ` (m).
+    scale: f64,
+    /// Index of the compression DOF.
+    c_dof: usize,
+    /// Every stencil's DOFs with the compression DOF appended.
+    dofs: Vec<Vec<usize>>,
+    /// Every stencil's `∂q/∂c` (positions `−v (v·Y_i)`, twists 0).
+    d: Vec<Vec<f64>>,
+    /// Index of the first contact stencil.
+    first_contact: usize,
+}
+
+impl<'t> CompressedTile<'t> {
+    /// The problem at stretch `s` along `angle` (a tile axis), built at compression `c0` with
+    /// the given pairs.
+    pub fn new(
+        tile: &'t Tile,
+        model: YarnModel,
+        s: f64,
+        angle: f64,
+        c0: f64,
+        pairs: Vec<ContactPair>,
+    ) -> Result<Self, PeriodicError> {
+        if !along_tile_axis(angle) {
+            return Err(PeriodicError::Invalid(format!(
+                "the compression is a DOF only along a tile axis, not at angle {angle}"
+            )));
+        }
+        let base = PeriodicTile::new(tile, model, Coarse::uniaxial(s, c0, angle), pairs)?;
+        let v = Vector3::new(-angle.sin(), angle.cos(), 0.0);
+        let c_dof = base.n_dofs();
+        let mut dofs = Vec::with_capacity(base.n_stencils());
+        let mut d = Vec::with_capacity(base.n_stencils());
+        for k in 0..base.n_stencils() {
+            let mut stencil = base.stencil_dofs(k).to_vec();
+            let mut dk = vec![0.0; stencil.len()];
+            for (i, &(vertex, shift)) in base.points[k].iter().enumerate() {
+                let y = tile.positions[vertex] + tile.period_offset(shift);
+                let di = -v * v.dot(&y);
+                dk[3 * i..3 * i + 3].copy_from_slice(di.as_slice());
+            }
+            stencil.push(c_dof);
+            dofs.push(stencil);
+            d.push(dk);
+        }
+        let first_contact = base.n_stencils() - base.pairs().len();
+        Ok(Self {
+            scale: base.area().sqrt(),
+            base,
+            c0,
+            c_dof,
+            dofs,
+            d,
+            first_contact,
+        })
+    }
+
+    /// `ℓ` (m): the compression DOF is `ℓ c`.
+    pub fn scale(&self) -> f64 {
+        self.scale
+    }
+
+    /// The compression at `x`.
+    pub fn compression(&self, x: &[f64]) -> f64 {
+        x[self.c_dof] / self.scale
+    }
+
+    /// The linear constraints of the base problem ([`PeriodicTile::constraints`]), with the
+    /// compression DOF free.
+    pub fn constraints(&self) -> Result<LinearConstraints, PeriodicError> {
+        let c = self.base.constraints()?;
+        Ok(LinearConstraints::new(
+            self.c_dof + 1,
+            c.triplets(),
+            c.rhs(),
+        )?)
+    }
+
+    /// Stencil `k`'s local vector at `x` (at the compression `x` holds).
+    fn local(&self, k: usize, x: &[f64]) -> solver::LocalVector {
+        let mut q = self.base.local_positions(k, x);
+        let dc = self.compression(x) - self.c0;
+        for (qi, di) in q.iter_mut().zip(&self.d[k]) {
+            *qi += dc * di;
+        }
+        q
+    }
+}
+
+impl Problem for CompressedTile<'_> {
+    fn n_dofs(&self) -> usize {
+        self.c_dof + 1
+    }
+    fn n_stencils(&self) -> usize {
+        self.dofs.len()
+    }
+    fn stencil_dofs(&self, k: usize) -> &[usize] {
+        &self.dofs[k]
+    }
+    fn eval_stencil(&self, k: usize, x: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        let q = self.local(k, x);
+        let m = q.len();
+        assert!(
+            m <= MAX_LOCAL,
+            "a tile stencil has at most {MAX_LOCAL} local DOFs"
+        );
+        let d = &self.d[k];
+        let term = self.base.terms.term(k);
+        let (g, gc) = grad.split_at_mut(m);
+        let Some(hess) = hess else {
+            let e = term.local_eval(&q, g, None);
+            gc[0] = g.iter().zip(d).map(|(a, b)| a * b).sum::<f64>() / self.scale;
+            return e;
+        };
+        let mut h = [0.0; MAX_LOCAL * MAX_LOCAL];
+        let h = &mut h[..m * m];
+        let e = term.local_eval(&q, g, Some(h));
+        gc[0] = g.iter().zip(d).map(|(a, b)| a * b).sum::<f64>() / self.scale;
+        let n = m + 1;
+        let mut dhd = 0.0;
+        for j in 0..m {
+            let column = &h[m * j..m * (j + 1)];
+            hess[n * j..n * j + m].copy_from_slice(column);
+            // (H d)_j, H symmetric.
+            let hd: f64 = column.iter().zip(d).map(|(a, b)| a * b).sum();
+            hess[n * j + m] = hd / self.scale;
+            hess[n * m + j] = hd / self.scale;
+            dhd += hd * d[j];
+        }
+        hess[n * m + m] = dhd / (self.scale * self.scale);
+        e
+    }
+    fn stencil_energy(&self, k: usize, x: &[f64]) -> f64 {
+        self.base.terms.term(k).local_energy(&self.local(k, x))
+    }
+    /// The collision filter of [`PeriodicTile`] with every point's move bounded by
+    /// `|Δũ| + |Δc| |d_i|`.
+    fn max_step(&self, x: &[f64], dx: &[f64]) -> f64 {
+        const ETA: f64 = 0.9;
+        let dc = (dx[self.c_dof] / self.scale).abs();
+        let vertex_move = |dofs: &[usize], i: usize| {
+            Vector3::new(dx[dofs[3 * i]], dx[dofs[3 * i + 1]], dx[dofs[3 * i + 2]]).norm()
+        };
+        (self.first_contact..self.n_stencils())
+            .map(|k| {
+                let q = self.local(k, x);
+                let (dofs, d) = (&self.dofs[k], &self.d[k]);
+                let point = |i: usize| Vector3::new(q[3 * i], q[3 * i + 1], q[3 * i + 2]);
+                let moves: Vec<f64> = (0..4)
+                    .map(|i| {
+                        vertex_move(dofs, i)
+                            + dc * Vector3::new(d[3 * i], d[3 * i + 1], d[3 * i + 2]).norm()
+                    })
+                    .collect();
+                let m = moves[0].max(moves[1]) + moves[2].max(moves[3]);
+                let distance = closest_points(&point(0), &point(1), &point(2), &point(3)).2;
+                if m > 0.0 {
+                    ETA * distance / m
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// The equilibrium at stretch `s` along `angle` (a tile axis) with zero orthogonal stress,
+/// in one Newton solve over the fluctuations, the twists and the compression (module
+/// documentation), starting from `start` (the tile's rest state if `None`) at compression
+/// `guess`. Pair updates and the restart with the wider pair set are those of
+/// [`super::solve_equilibrium`]. Returns the compression and the equilibrium under its map.
+pub fn solve_compressed(
+    tile: &Tile,
+    model: &YarnModel,
+    s: f64,
+    angle: f64,
+    guess: f64,
+    start: Option<&[f64]>,
+    settings: &EquilibriumSettings,
+) -> Result<(f64, Equilibrium), PeriodicError> {
+    let start = match start {
+        Some(s) => s.to_vec(),
+        None => super::initial_dofs(tile)?,
+    };
+    if start.len() != 4 * tile.n_vertices() {
+        return Err(PeriodicError::Invalid(format!(
+            "start has {} DOFs, expected {}",
+            start.len(),
+            4 * tile.n_vertices()
+        )));
+    }
+    let scale = (tile.period[0] * tile.period[1]).sqrt();
+    let mut first = start.clone();
+    first.push(scale * guess);
+    let mut x = first.clone();
+    let mut iterations = 0;
+    let mut known: Vec<ContactPair> = Vec::new();
+    let mut restarted = false;
+    for _ in 0..=settings.max_pair_updates {
+        let margin = if restarted {
+            super::solve::RESTART_MARGIN_FACTOR * settings.pair_margin
+        } else {
+            settings.pair_margin
+        };
+        let c = x[x.len() - 1] / scale;
+        let coarse = Coarse::uniaxial(s, c, angle);
+        let near = PeriodicTile::find_pairs(tile, model, &coarse, &x, margin)?;
+        known = super::solve::union(&known, &near);
+        let problem = CompressedTile::new(tile, *model, s, angle, c, known.clone())?;
+        let constraints = problem.constraints()?;
+        let report = match minimize_constrained(&problem, &mut x, &constraints, &settings.newton) {
+            Ok(report) => report,
+            Err(e) if !restarted => {
+                iterations += e.report().map_or(0, |r| r.iterations);
+                restarted = true;
+                x.clone_from(&first);
+                continue;
+            }
+            Err(e) => return Err(e.into()),
+        };
+        iterations += report.iterations;
+        let c = problem.compression(&x);
+        let coarse = Coarse::uniaxial(s, c, angle);
+        let needed = PeriodicTile::find_pairs(tile, model, &coarse, &x, 1.0)?;
+        if needed
+            .iter()
+            .all(|p| problem.base.pairs().binary_search(p).is_ok())
+        {
+            let dofs = x[..x.len() - 1].to_vec();
+            let at = PeriodicTile::new(tile, *model, coarse, problem.base.pairs().to_vec())?;
+            let energy = *report.energy_history.last().unwrap_or(&f64::NAN);
+            return Ok((
+                c,
+                Equilibrium {
+                    coarse,
+                    energy,
+                    density: energy / at.area(),
+                    stress: at.stress(&dofs),
+                    pairs: at.pairs().to_vec(),
+                    closest_approach: at.closest_approach(&dofs),
+                    dofs,
+                    iterations,
+                },
+            ));
+        }
+    }
+    Err(PeriodicError::Invalid(format!(
+        "contact pairs did not settle after {} rebuilds",
+        settings.max_pair_updates
+    )))
+}

@@ -1,0 +1,153 @@
+//! A uniaxial curve point solved with the compression as a DOF
+//! (`sim_periodic::periodic::solve_compressed`): exact derivatives, its gradient is the
+//! orthogonal stress, and it reaches the root-find's compressions in fewer Newton iterations.
+
+use sim_periodic::coarse::Coarse;
+use sim_periodic::curves::{CurveSettings, directional_stress, uniaxial_curve};
+use sim_periodic::database::relax_period;
+use sim_periodic::periodic::{
+    CompressedTile, EquilibriumSettings, PeriodicTile, YarnModel, solve_compressed,
+};
+use solver::Assembler;
+use yarn_pattern::direction::Direction;
+
+mod common;
+use common::{assert_problem_derivatives, perturbed, stockinette};
+
+/// Exact gradient and Hessian of the energy in the fluctuations, the twists and `ℓ c`, along
+/// weft and warp, against central differences; and `∂E/∂(ℓc) = −ℓ σ_c`, the gathered
+/// orthogonal stress (seed 002 Eq. 10) of the tile under the map at that compression.
+#[test]
+fn compressed_tile_derivatives_are_exact_and_its_gradient_is_the_orthogonal_stress() {
+    let tile = stockinette();
+    let model = YarnModel::default_for_radius(tile.radius);
+    let n = tile.n_vertices();
+    for direction in [Direction::Weft, Direction::Warp] {
+        let (s, c0, c) = (0.12, 0.03, 0.05);
+        let angle = direction.angle();
+        let u = perturbed(&tile);
+        let coarse = Coarse::uniaxial(s, c, angle);
+        let pairs = PeriodicTile::find_pairs(&tile, &model, &coarse, &u, 1.5).unwrap();
+        assert!(pairs.len() > 100, "contacts expected in a knit tile");
+        // Built at c0, evaluated at c: the affine offset in c is exercised.
+        let problem = CompressedTile::new(&tile, model, s, angle, c0, pairs.clone()).unwrap();
+        let mut x = u.clone();
+        x.push(problem.scale() * c);
+        assert_eq!(problem.compression(&x), c);
+        assert_problem_derivatives(&problem, &x, tile.radius, |i| i < 3 * n || i == 4 * n, 11);
+
+        let mut asm = Assembler::new(&problem).unwrap();
+        let (energy, gradient) = asm.gradient(&problem, &x).unwrap();
+        let gc = gradient[4 * n];
+        let at = PeriodicTile::new(&tile, model, coarse, pairs).unwrap();
+        let mut plain = Assembler::new(&at).unwrap();
+        let plain_energy = plain.energy(&at, &u).unwrap();
+        let stress = at.stress(&u);
+        let v = nalgebra::Vector2::new(-angle.sin(), angle.cos());
+        let sigma_c = v.dot(&(stress * v));
+        println!(
+            "{}: E {energy:.9e} vs {plain_energy:.9e}, ∂E/∂(ℓc) {gc:.9e}, −ℓσ_c {:.9e}",
+            direction.name(),
+            -problem.scale() * sigma_c
+        );
+        assert!((energy - plain_energy).abs() <= 1e-12 * plain_energy.abs());
+        assert!(
+            (gc + problem.scale() * sigma_c).abs() <= 1e-9 * gc.abs().max(1e-9),
+            "{gc} vs {}",
+            -problem.scale() * sigma_c
+        );
+    }
+    // The bias keeps the root-find: its no-sliding rows turn with c.
+    let err = CompressedTile::new(&tile, model, 0.1, Direction::Bias.angle(), 0.0, Vec::new())
+        .err()
+        .expect("the bias has no compression DOF");
+    assert!(err.to_string().contains("tile axis"), "{err}");
+}
+
+/// Along weft and warp, the curve with the compression as a DOF has the root-find's
+/// compressions and stresses (one continuation from the rest state, the same stretches), zero
+/// orthogonal stress to the root-find's tolerance, and takes fewer Newton iterations.
+#[test]
+fn compression_dof_curve_matches_the_root_find_in_fewer_iterations() {
+    let tile = stockinette();
+    let model = YarnModel::default_for_radius(tile.radius);
+    let (tile, _) = relax_period(&tile, &model, &EquilibriumSettings::default(), 1e-6).unwrap();
+    let s = [0.0, 0.05, 0.1, 0.2, 0.3];
+    let dof = CurveSettings::default();
+    assert!(dof.compression_dof, "the default");
+    let root = CurveSettings {
+        compression_dof: false,
+        ..CurveSettings::default()
+    };
+    for direction in [Direction::Weft, Direction::Warp] {
+        let a = uniaxial_curve(&tile, &model, direction, &s, &dof).unwrap();
+        let b = uniaxial_curve(&tile, &model, direction, &s, &root).unwrap();
+        let its =
+            |c: &[sim_periodic::curves::CurvePoint]| c.iter().map(|p| p.iterations).sum::<usize>();
+        println!(
+            "{}: Newton iterations {} (compression DOF) vs {} (root-find)",
+            direction.name(),
+            its(&a),
+            its(&b)
+        );
+        for (p, q) in a.iter().zip(&b) {
+            println!(
+                "  s {:.2}: c {:.9} vs {:.9}, σ_s {:.6} vs {:.6} N/m, {} vs {} solves",
+                p.s, p.c, q.c, p.sigma_s, q.sigma_s, p.solves, q.solves
+            );
+            assert!(
+                p.sigma_c.abs() <= dof.stress_abs_tol + dof.stress_rel_tol * p.sigma_s.abs(),
+                "σ_c {} at s {}",
+                p.sigma_c,
+                p.s
+            );
+            assert!(
+                (p.c - q.c).abs() < 1e-6,
+                "c {} vs {} at s {}",
+                p.c,
+                q.c,
+                p.s
+            );
+            assert!(
+                (p.sigma_s - q.sigma_s).abs() <= 1e-5 * q.sigma_s.abs().max(1.0),
+                "σ_s {} vs {} at s {}",
+                p.sigma_s,
+                q.sigma_s,
+                p.s
+            );
+        }
+        assert!(its(&a) < its(&b));
+        // The point is the equilibrium under its own map.
+        let last = a.last().unwrap();
+        let (_, sigma_c) = directional_stress(
+            &sim_periodic::periodic::solve_equilibrium(
+                &tile,
+                &model,
+                Coarse::uniaxial(last.s, last.c, direction.angle()),
+                None,
+                &EquilibriumSettings::default(),
+            )
+            .unwrap(),
+            direction.angle(),
+        );
+        println!("  re-solved from rest at the last point's map: σ_c {sigma_c:.3e} N/m");
+    }
+    // A solve straight to a stretch from the rest state, without continuation.
+    let (c, eq) = solve_compressed(
+        &tile,
+        &model,
+        0.1,
+        0.0,
+        0.0,
+        None,
+        &EquilibriumSettings::default(),
+    )
+    .unwrap();
+    let (sigma_s, sigma_c) = directional_stress(&eq, 0.0);
+    println!(
+        "weft s 0.1 from rest: c {c:.6}, σ_s {sigma_s:.6}, σ_c {sigma_c:.3e} N/m, {} iterations",
+        eq.iterations
+    );
+    assert!(c > 0.0, "knits narrow when stretched");
+    assert!(sigma_c.abs() <= 1e-6 * sigma_s.abs().max(1.0));
+}
