@@ -43,19 +43,24 @@
 //!   yarn's stiff stretch regime. Friction, the stitch-length energy and wrapping change it
 //!   by 14 % at most (measured once).
 //! - *The same knits with the tile's yarn per loop* (offset 1.33–1.73 R) *are softer than the
-//!   tile* in weft: stockinette 47× at 30 %, rib 78×; garter weft is 4× softer at 10 % and
+//!   tile* in weft: stockinette 36× at 30 %, rib 73×; garter weft is 4× softer at 10 % and
 //!   within 1.35× at 30 %. So the yarn length was the cause of
 //!   the stiffness (tested on the quick swatch: more than 10× softer at 20 %, measured
 //!   610×), and what remains is the
 //!   model: the persistent swatch stores the extra yarn in its out-of-plane zigzag, which
 //!   the pull flattens against node bending and friction alone, while the tile's loops press
-//!   on each other through their contacts (stated, not tested). Warp pulls disagree both
-//!   ways: garter 7× softer, rib 640× stiffer at 30 %. Clamped, the rib pushes on the clamps
-//!   (its legs are bent, and seed 000's bending is at rest straight), so the zero-force
-//!   start lengthens it to 61.1 mm against 41.6 mm in seed 000's layout: the added yarn is
-//!   spent before the pull begins (tested on the quick swatch: 1.43×).
-//!   One of the six tile's-loop runs cannot start (stockinette warp): the static solve
-//!   fails while the clamp moves to zero force (key number "has no curve").
+//!   on each other through their contacts (stated, not tested). The garter's warp pull is
+//!   10× softer at 30 %. Clamped, the rib pushes on the clamps (its legs are bent, and seed
+//!   000's bending is at rest straight), so its zero-force start lengthens it (tested on the
+//!   quick swatch: 1.43×); in the full run at 0591902 its warp swatch reached zero force at
+//!   61.1 mm against 41.6 mm in seed 000's layout, spent the added yarn before the pull
+//!   began, and was 640× stiffer than the tile at 30 %.
+//!   Two of the six tile's-loop runs cannot start (key numbers "has no curve"): the
+//!   stockinette's warp, whose static solve fails while the clamp moves to zero force, and,
+//!   since the full run at 2fb7d16, the rib's warp, whose clamp force keeps its sign over the
+//!   200 static solves of that search (−0.064 N at the settled length). The earlier run was
+//!   at 0591902; the persistent swatch's yarn mapping changed since (db4fc67 among 48
+//!   commits to the simulators), and the full run was not repeated in between.
 //! - *Plain weave: the persistent swatch is 66× stiffer at 10 %* and does not contract: its
 //!   yarns run straight between persistent crossings, so `σ = ψ'(s)/d` from the first strain
 //!   (tested to 0.1 %), while the tile's crimp interchange takes the first 20 % of stretch. A
