@@ -32,11 +32,11 @@
 //! the root-find takes one solve per trial compression. On the real stockinette
 //! (`tests/compression_dof.rs`, 5 stretches to 0.3 from the rest state) the weft curve took 25
 //! Newton iterations against 63, the warp 23 against 67, at the same compressions (within
-//! 7·10⁻⁸) and stresses (within 4·10⁻⁷ relative). Where the joint solve leaves an orthogonal
-//! stress above the root-find's tolerance (it stops on the gradient in `ℓ c`, module
-//! documentation of `compression.rs`; at `s = 0`, where the tolerance is 10⁻⁸ N/m), the
-//! root-find with the exact slope finishes from its state; where the joint solve fails, the
-//! root-find runs as before. The bias, whose no-sliding rows turn with `c`, keeps the
+//! 7·10⁻⁸) and stresses (within 4·10⁻⁷ relative). The joint solve stops on its gradient in
+//! `ℓ c` (`ℓ` the tile's size; 10⁻⁹ N is a few 10⁻⁷ N/m of `σ_c`); where that leaves an
+//! orthogonal stress above the root-find's tolerance (at `s = 0`, where the tolerance is
+//! 10⁻⁸ N/m), the root-find with the exact slope finishes from its state; where the joint
+//! solve fails, the root-find runs as before. The bias, whose no-sliding rows turn with `c`, keeps the
 //! root-find. Where several states of zero orthogonal stress are within reach (jammed or
 //! snapping tiles, far from any fit), the root-find and the joint solve can end on different
 //! ones: the joint solve ends where the energy is a minimum in `c` as well, the state a free

@@ -151,3 +151,51 @@ fn compression_dof_curve_matches_the_root_find_in_fewer_iterations() {
     assert!(c > 0.0, "knits narrow when stretched");
     assert!(sigma_c.abs() <= 1e-6 * sigma_s.abs().max(1.0));
 }
+
+/// The collision filter bounds every point's move by its fluctuation's plus the compression's
+/// share: along any step no farther than the filter allows, the closest contact pair stays at
+/// least `1 − η = 0.1` of its starting distance apart, and a step that also moves `c` is cut
+/// shorter than the same step at fixed `c`.
+#[test]
+fn the_collision_filter_accounts_for_the_compression_dof() {
+    let tile = stockinette();
+    let model = YarnModel::default_for_radius(tile.radius);
+    let n = tile.n_vertices();
+    let (s, angle, c0) = (0.1, Direction::Weft.angle(), 0.02);
+    let u = perturbed(&tile);
+    let coarse = Coarse::uniaxial(s, c0, angle);
+    let pairs = PeriodicTile::find_pairs(&tile, &model, &coarse, &u, 1.5).unwrap();
+    let problem = CompressedTile::new(&tile, model, s, angle, c0, pairs.clone()).unwrap();
+    let mut x = u.clone();
+    x.push(problem.scale() * c0);
+    // A smooth step of the fluctuations, with and without a compression step of 0.3.
+    let mut dx: Vec<f64> = (0..x.len())
+        .map(|i| {
+            if i < 3 * n {
+                tile.radius * ((i as f64) * 1.3).cos()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let fixed_c = solver::Problem::max_step(&problem, &x, &dx);
+    dx[4 * n] = problem.scale() * 0.3;
+    let alpha = solver::Problem::max_step(&problem, &x, &dx);
+    println!("max step: {fixed_c:.4e} at fixed c, {alpha:.4e} with Δc = 0.3 α");
+    assert!(alpha.is_finite() && alpha > 0.0 && alpha < fixed_c);
+    let approach = |t: f64| {
+        let y: Vec<f64> = x.iter().zip(&dx).map(|(a, b)| a + t * b).collect();
+        let c = problem.compression(&y);
+        let at =
+            PeriodicTile::new(&tile, model, Coarse::uniaxial(s, c, angle), pairs.clone()).unwrap();
+        at.closest_approach(&y[..4 * n])
+    };
+    let start = approach(0.0);
+    for k in 1..=20 {
+        let d = approach(alpha * k as f64 / 20.0);
+        assert!(
+            d >= 0.1 * start,
+            "closest approach {d} < 0.1 × {start} at {k}/20"
+        );
+    }
+}

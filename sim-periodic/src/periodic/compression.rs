@@ -24,6 +24,7 @@
 //! gradient `−ℓ σ_c` is a force like the other DOFs' and its Hessian entry `ℓ² ∂²Ψ/∂c²`
 //! a stiffness of their order (the solver's regularizing shifts and tolerances are shared).
 
+use super::filter::COLLISION_ETA;
 use super::{
     ContactPair, Equilibrium, EquilibriumSettings, PeriodicError, PeriodicTile, YarnModel,
 };
@@ -183,10 +184,9 @@ impl Problem for CompressedTile<'_> {
     fn stencil_energy(&self, k: usize, x: &[f64]) -> f64 {
         self.base.terms.term(k).local_energy(&self.local(k, x))
     }
-    /// The collision filter of [`PeriodicTile`] with every point's move bounded by
-    /// `|Δũ| + |Δc| |d_i|`.
+    /// The collision filter of [`PeriodicTile`] (`filter.rs`) with every point's move bounded
+    /// by `|Δũ| + |Δc| |d_i|`: a pair stays at least `(1 − η)` of its distance apart.
     fn max_step(&self, x: &[f64], dx: &[f64]) -> f64 {
-        const ETA: f64 = 0.9;
         let dc = (dx[self.c_dof] / self.scale).abs();
         let vertex_move = |dofs: &[usize], i: usize| {
             Vector3::new(dx[dofs[3 * i]], dx[dofs[3 * i + 1]], dx[dofs[3 * i + 2]]).norm()
@@ -196,16 +196,14 @@ impl Problem for CompressedTile<'_> {
                 let q = self.local(k, x);
                 let (dofs, d) = (&self.dofs[k], &self.d[k]);
                 let point = |i: usize| Vector3::new(q[3 * i], q[3 * i + 1], q[3 * i + 2]);
-                let moves: Vec<f64> = (0..4)
-                    .map(|i| {
-                        vertex_move(dofs, i)
-                            + dc * Vector3::new(d[3 * i], d[3 * i + 1], d[3 * i + 2]).norm()
-                    })
-                    .collect();
+                let moves: [f64; 4] = std::array::from_fn(|i| {
+                    vertex_move(dofs, i)
+                        + dc * Vector3::new(d[3 * i], d[3 * i + 1], d[3 * i + 2]).norm()
+                });
                 let m = moves[0].max(moves[1]) + moves[2].max(moves[3]);
                 let distance = closest_points(&point(0), &point(1), &point(2), &point(3)).2;
                 if m > 0.0 {
-                    ETA * distance / m
+                    COLLISION_ETA * distance / m
                 } else {
                     f64::INFINITY
                 }

@@ -4,6 +4,9 @@ use super::PeriodicTile;
 use nalgebra::Vector3;
 use rod::contact::closest_points;
 
+/// The filter's `η`: a pair may close by at most this fraction of its distance in one step.
+pub(super) const COLLISION_ETA: f64 = 0.9;
+
 impl PeriodicTile<'_> {
     /// Conservative continuous collision filter: a point of an edge moves by at most the larger
     /// move of its two end vertices (`|R Δũ| = |Δũ|`, frames are orthonormal), so a pair at
@@ -12,7 +15,6 @@ impl PeriodicTile<'_> {
     /// extrapolated warm start can carry a yarn through another (the barrier is only sampled
     /// at quadrature points), after which Newton converges to a topologically wrong state.
     pub(super) fn collision_step(&self, x: &[f64], dx: &[f64]) -> f64 {
-        const ETA: f64 = 0.9;
         let moves: Vec<f64> = (0..self.tile.n_vertices())
             .map(|v| Vector3::new(dx[3 * v], dx[3 * v + 1], dx[3 * v + 2]).norm())
             .collect();
@@ -24,7 +26,11 @@ impl PeriodicTile<'_> {
             .map(|(p, [a0, a1, b0, b1])| {
                 let m = edge_move(p.a) + edge_move(p.b);
                 let d = closest_points(&a0, &a1, &b0, &b1).2;
-                if m > 0.0 { ETA * d / m } else { f64::INFINITY }
+                if m > 0.0 {
+                    COLLISION_ETA * d / m
+                } else {
+                    f64::INFINITY
+                }
             })
             .fold(f64::INFINITY, f64::min)
     }
