@@ -32,6 +32,15 @@
 //! 2026-11-30, same hour): acrylic seed 1.530 → 1.253 ms per Newton iteration (32 vertices since
 //! the seed's primitive tile), acrylic rib 1.811 → 1.364 ms and acrylic stockinette 0.864 →
 //! 0.827 ms (these two "before" figures with the blocked solve of `Y` already in).
+//! With the weft and warp compression nodes solved with the compression as a DOF (2fb7d16;
+//! 10 points, `all`, 2026-11-30, the binary of 2acc5cf and of dc2c8dc run one after the other,
+//! same solved and failed counts): Newton iterations per solved evaluation 25–33 % fewer on
+//! every fabric (stockinettes 255 / 266 → 182 / 183, garters 457 / 630 → 338 / 424, ribs 577 /
+//! 534 → 402 / 398, seeds 499 / 511 → 351 / 351; acrylic / babyredo), seconds per solved
+//! evaluation 0.163 / 0.136 → 0.085 / 0.107, 0.390 / 0.584 → 0.285 / 0.364, 0.539 / 0.519 →
+//! 0.377 / 0.463, 0.496 / 0.474 → 0.312 / 0.362, the whole run 32.9 → 23.7 s. Some of these
+//! points end on other equilibria than before ([`sim_periodic::fit::objective`]'s *The
+//! compression as a DOF*), so the iterations compare the same points, not the same states.
 //!
 //! Uniform points understate what a fit's swarm pays, about half on the acrylic seed
 //! ([`sim_periodic::fit::objective`]'s cost paragraph: after its uniform initial population

@@ -177,7 +177,7 @@
 //! solved both ways `g` agreed to 4·10⁻⁷ relative (compressions within 7·10⁻⁸). On the other
 //! 10 the two searches ended on different zero-orthogonal-stress states somewhere along a
 //! curve (compressions up to 0.25 apart): 9 of them at `g` from 3 to 2800, far from any fit,
-//! where the tiles jam, and one at `g` 0.96 (6·10⁻³ relative). So the change moves every fit
+//! where the tiles jam, and one at `g` 0.96 (6·10⁻³ relative). So the change moves most fits
 //! onto another path; the fits' own numbers are in `yarn-fit`'s and the benchmarks'.
 
 use crate::coarse::Coarse;
