@@ -222,8 +222,12 @@ pub fn uniaxial_curve_states(
             "stretch {bad} must be finite and > -1"
         )));
     }
-    let angle = direction.angle();
-    let name = direction.name();
+    let along = Along {
+        tile,
+        model,
+        angle: direction.angle(),
+        name: direction.name(),
+    };
     let mut warm: Option<Vec<f64>> = None;
     let mut c_prev = 0.0;
     let mut slope = 0.0; // dc/ds of the previous step
@@ -231,29 +235,7 @@ pub fn uniaxial_curve_states(
     let mut out: Vec<(CurvePoint, Equilibrium)> = Vec::with_capacity(stretches.len());
     for &s in stretches {
         let guess = (c_prev + slope * (s - s_prev)).min(0.9);
-        let point = if settings.compression_dof && along_tile_axis(angle) {
-            compression_dof_point(
-                tile,
-                model,
-                angle,
-                name,
-                s,
-                guess,
-                warm.as_deref(),
-                settings,
-            )?
-        } else {
-            root_find(
-                tile,
-                model,
-                angle,
-                name,
-                s,
-                guess,
-                warm.as_deref(),
-                settings,
-            )?
-        };
+        let point = along.point(s, guess, warm.as_deref(), settings)?;
         if let Some(last) = out.last() {
             let last: &CurvePoint = &last.0;
             if (s - last.s).abs() > 0.0 {
@@ -268,151 +250,180 @@ pub fn uniaxial_curve_states(
     Ok(out)
 }
 
-/// The point at stretch `s` along a tile axis from one solve with the compression as a DOF
-/// ([`solve_compressed`], from `guess` and `warm`). Its stationarity tolerance in `c` is the
-/// solver's gradient tolerance on `ℓ c`; where the orthogonal stress it leaves is above the
-/// root-find's tolerance, [`root_find`] with the exact slope finishes from there (one solve at
-/// that compression and, usually, one Newton step). Where the solve fails or its compression
-/// is past the root-find's bound (0.95), the root-find runs from `guess` and `warm` instead.
-#[allow(clippy::too_many_arguments)]
-fn compression_dof_point(
-    tile: &Tile,
-    model: &YarnModel,
-    angle: f64,
-    name: &'static str,
-    s: f64,
-    guess: f64,
-    warm: Option<&[f64]>,
-    settings: &CurveSettings,
-) -> Result<(CurvePoint, Equilibrium), CurveError> {
-    let (c, eq) = match solve_compressed(tile, model, s, angle, guess, warm, &settings.equilibrium)
-    {
-        Ok((c, eq)) if c <= COMPRESSION_BOUND => (c, eq),
-        _ => return root_find(tile, model, angle, name, s, guess, warm, settings),
-    };
-    let (sigma_s, sigma_c) = directional_stress(&eq, angle);
-    if sigma_c.abs() <= settings.stress_abs_tol + settings.stress_rel_tol * sigma_s.abs() {
-        let point = CurvePoint {
-            s,
-            c,
-            sigma_s,
-            sigma_c,
-            density: eq.density,
-            solves: 1,
-            iterations: eq.iterations,
-        };
-        return Ok((point, eq));
-    }
-    let polish = CurveSettings {
-        exact_slope: true,
-        ..settings.clone()
-    };
-    let (mut point, eq_root) = root_find(tile, model, angle, name, s, c, Some(&eq.dofs), &polish)?;
-    point.solves += 1;
-    point.iterations += eq.iterations;
-    Ok((point, eq_root))
-}
-
 /// Largest compression a root-find tries.
 const COMPRESSION_BOUND: f64 = 0.95;
 
-/// The compression at which `σ_c` vanishes for stretch `s`: [`solver::secant`] from `guess`
-/// (Newton steps with [`compression_slope`] where [`CurveSettings::exact_slope`], else a second
-/// point 0.01 away and secant steps; steps of at most 0.2 clipped to `c ≤ 0.95`, a trial compression
-/// without a reachable equilibrium — a jammed state where Newton stalls against the collision
-/// filter — retried up to 4 times closer to the last good one), every evaluation an
-/// equilibrium solve warm-started from the last one.
-#[allow(clippy::too_many_arguments)]
-fn root_find(
-    tile: &Tile,
-    model: &YarnModel,
+/// A tile, its yarn model and the direction of one curve: what its points share.
+#[derive(Clone, Copy)]
+struct Along<'a> {
+    tile: &'a Tile,
+    model: &'a YarnModel,
     angle: f64,
     name: &'static str,
-    s: f64,
-    guess: f64,
-    warm: Option<&[f64]>,
-    settings: &CurveSettings,
-) -> Result<(CurvePoint, Equilibrium), CurveError> {
-    let mut solves = 0;
-    let mut iterations = 0;
-    let mut last_dofs: Option<Vec<f64>> = warm.map(<[f64]>::to_vec);
-    // Evaluates σ_c at compression c (warm-started from the last solve).
-    let eval = |c: f64| -> Result<SecantEval<(f64, Equilibrium)>, StepError<CurveError>> {
-        let coarse = Coarse::uniaxial(s, c, angle);
-        let eq = solve_equilibrium(
-            tile,
-            model,
-            coarse,
-            last_dofs.as_deref(),
-            &settings.equilibrium,
-        )
-        .map_err(|source| {
-            StepError::Halve(CurveError::Solve {
-                direction: name,
+}
+
+impl Along<'_> {
+    /// The point at stretch `s` from `guess` and `warm`: [`Along::compression_dof_point`] along
+    /// a tile axis with [`CurveSettings::compression_dof`], else [`Along::root_find`].
+    fn point(
+        &self,
+        s: f64,
+        guess: f64,
+        warm: Option<&[f64]>,
+        settings: &CurveSettings,
+    ) -> Result<(CurvePoint, Equilibrium), CurveError> {
+        if settings.compression_dof && along_tile_axis(self.angle) {
+            self.compression_dof_point(s, guess, warm, settings)
+        } else {
+            self.root_find(s, guess, warm, settings)
+        }
+    }
+
+    /// The point at stretch `s` along a tile axis from one solve with the compression as a DOF
+    /// ([`solve_compressed`], from `guess` and `warm`). Its stationarity tolerance in `c` is the
+    /// solver's gradient tolerance on `ℓ c`; where the orthogonal stress it leaves is above the
+    /// root-find's tolerance, [`Along::root_find`] with the exact slope finishes from there (one
+    /// solve at that compression and, usually, one Newton step). Where the solve fails or its
+    /// compression is past the root-find's bound (0.95), the root-find runs from `guess` and
+    /// `warm` instead.
+    fn compression_dof_point(
+        &self,
+        s: f64,
+        guess: f64,
+        warm: Option<&[f64]>,
+        settings: &CurveSettings,
+    ) -> Result<(CurvePoint, Equilibrium), CurveError> {
+        let Self {
+            tile, model, angle, ..
+        } = *self;
+        let (c, eq) =
+            match solve_compressed(tile, model, s, angle, guess, warm, &settings.equilibrium) {
+                Ok((c, eq)) if c <= COMPRESSION_BOUND => (c, eq),
+                _ => return self.root_find(s, guess, warm, settings),
+            };
+        let (sigma_s, sigma_c) = directional_stress(&eq, angle);
+        if sigma_c.abs() <= settings.stress_abs_tol + settings.stress_rel_tol * sigma_s.abs() {
+            let point = CurvePoint {
                 s,
                 c,
-                source,
-            })
-        })?;
-        solves += 1;
-        iterations += eq.iterations;
-        last_dofs = Some(eq.dofs.clone());
-        let (ss, sc) = directional_stress(&eq, angle);
-        let f_tol = settings.stress_abs_tol + settings.stress_rel_tol * ss.abs();
-        // A converged point needs no next step, so no slope.
-        let df = if settings.exact_slope && sc.abs() > f_tol {
-            compression_slope(tile, model, &eq, angle).map_err(|source| {
-                StepError::Abort(CurveError::Solve {
+                sigma_s,
+                sigma_c,
+                density: eq.density,
+                solves: 1,
+                iterations: eq.iterations,
+            };
+            return Ok((point, eq));
+        }
+        let polish = CurveSettings {
+            exact_slope: true,
+            ..settings.clone()
+        };
+        let (mut point, eq_root) = self.root_find(s, c, Some(&eq.dofs), &polish)?;
+        point.solves += 1;
+        point.iterations += eq.iterations;
+        Ok((point, eq_root))
+    }
+
+    /// The compression at which `σ_c` vanishes for stretch `s`: [`solver::secant`] from `guess`
+    /// (Newton steps with [`compression_slope`] where [`CurveSettings::exact_slope`], else a second
+    /// point 0.01 away and secant steps; steps of at most 0.2 clipped to `c ≤ 0.95`, a trial
+    /// compression without a reachable equilibrium — a jammed state where Newton stalls against the
+    /// collision filter — retried up to 4 times closer to the last good one), every evaluation an
+    /// equilibrium solve warm-started from the last one.
+    fn root_find(
+        &self,
+        s: f64,
+        guess: f64,
+        warm: Option<&[f64]>,
+        settings: &CurveSettings,
+    ) -> Result<(CurvePoint, Equilibrium), CurveError> {
+        let Self {
+            tile,
+            model,
+            angle,
+            name,
+        } = *self;
+        let mut solves = 0;
+        let mut iterations = 0;
+        let mut last_dofs: Option<Vec<f64>> = warm.map(<[f64]>::to_vec);
+        // Evaluates σ_c at compression c (warm-started from the last solve).
+        let eval = |c: f64| -> Result<SecantEval<(f64, Equilibrium)>, StepError<CurveError>> {
+            let coarse = Coarse::uniaxial(s, c, angle);
+            let eq = solve_equilibrium(
+                tile,
+                model,
+                coarse,
+                last_dofs.as_deref(),
+                &settings.equilibrium,
+            )
+            .map_err(|source| {
+                StepError::Halve(CurveError::Solve {
                     direction: name,
                     s,
                     c,
                     source,
                 })
-            })?
-        } else {
-            None
+            })?;
+            solves += 1;
+            iterations += eq.iterations;
+            last_dofs = Some(eq.dofs.clone());
+            let (ss, sc) = directional_stress(&eq, angle);
+            let f_tol = settings.stress_abs_tol + settings.stress_rel_tol * ss.abs();
+            // A converged point needs no next step, so no slope.
+            let df = if settings.exact_slope && sc.abs() > f_tol {
+                compression_slope(tile, model, &eq, angle).map_err(|source| {
+                    StepError::Abort(CurveError::Solve {
+                        direction: name,
+                        s,
+                        c,
+                        source,
+                    })
+                })?
+            } else {
+                None
+            };
+            Ok(SecantEval {
+                f: sc,
+                f_tol,
+                data: (ss, eq),
+                df,
+            })
         };
-        Ok(SecantEval {
-            f: sc,
-            f_tol,
-            data: (ss, eq),
-            df,
-        })
-    };
-    let secant_settings = SecantSettings {
-        first_step: 0.01,
-        max_step: 0.2,
-        lower: f64::NEG_INFINITY,
-        upper: COMPRESSION_BOUND,
-        max_iterations: settings.max_solves,
-        max_retries: 4,
-        x_tol: settings.compression_tol,
-    };
-    let root = match secant(guess, &secant_settings, eval) {
-        Ok(root) => root,
-        Err(SecantError::Eval { source, .. }) => return Err(source),
-        Err(SecantError::NotConverged(r) | SecantError::NonFinite(r)) => {
-            return Err(CurveError::RootFind {
-                direction: name,
-                s,
-                c: r.x,
-                best: r.best_abs_f(),
-                solves,
-            });
-        }
-        Err(SecantError::InvalidInput(msg)) => return Err(CurveError::Invalid(msg)),
-    };
-    let (sigma_s, eq) = root.data;
-    let point = CurvePoint {
-        s,
-        c: root.x,
-        sigma_s,
-        sigma_c: root.f,
-        density: eq.density,
-        solves,
-        iterations,
-    };
-    Ok((point, eq))
+        let secant_settings = SecantSettings {
+            first_step: 0.01,
+            max_step: 0.2,
+            lower: f64::NEG_INFINITY,
+            upper: COMPRESSION_BOUND,
+            max_iterations: settings.max_solves,
+            max_retries: 4,
+            x_tol: settings.compression_tol,
+        };
+        let root = match secant(guess, &secant_settings, eval) {
+            Ok(root) => root,
+            Err(SecantError::Eval { source, .. }) => return Err(source),
+            Err(SecantError::NotConverged(r) | SecantError::NonFinite(r)) => {
+                return Err(CurveError::RootFind {
+                    direction: name,
+                    s,
+                    c: r.x,
+                    best: r.best_abs_f(),
+                    solves,
+                });
+            }
+            Err(SecantError::InvalidInput(msg)) => return Err(CurveError::Invalid(msg)),
+        };
+        let (sigma_s, eq) = root.data;
+        let point = CurvePoint {
+            s,
+            c: root.x,
+            sigma_s,
+            sigma_c: root.f,
+            density: eq.density,
+            solves,
+            iterations,
+        };
+        Ok((point, eq))
+    }
 }
 
 /// The slope `dσ_c/dc` (N/m) of the orthogonal stress at the equilibrium `eq` under the

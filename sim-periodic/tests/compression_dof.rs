@@ -131,6 +131,10 @@ fn compression_dof_curve_matches_the_root_find_in_fewer_iterations() {
             direction.angle(),
         );
         println!("  re-solved from rest at the last point's map: σ_c {sigma_c:.3e} N/m");
+        assert!(
+            sigma_c.abs() <= dof.stress_abs_tol + dof.stress_rel_tol * last.sigma_s.abs(),
+            "σ_c {sigma_c} re-solved at the last point's map"
+        );
     }
     // A solve straight to a stretch from the rest state, without continuation.
     let (c, eq) = solve_compressed(

@@ -25,17 +25,23 @@
 //! a stiffness of their order (the solver's regularizing shifts and tolerances are shared).
 
 use super::filter::COLLISION_ETA;
+use super::solve::{settle_pairs, start_dofs};
 use super::{
     ContactPair, Equilibrium, EquilibriumSettings, PeriodicError, PeriodicTile, YarnModel,
 };
 use crate::coarse::Coarse;
 use nalgebra::Vector3;
 use rod::contact::closest_points;
-use solver::{LinearConstraints, Problem, minimize_constrained};
+use solver::{LinearConstraints, Problem};
 use yarn_pattern::tile::Tile;
 
 /// Largest local vector of a tile stencil (a contact pair: 4 points).
 const MAX_LOCAL: usize = 12;
+
+/// `ℓ = √(pₓ p_y)` (m): the compression DOF is `ℓ c` (module documentation).
+fn dof_scale(tile: &Tile) -> f64 {
+    (tile.period[0] * tile.period[1]).sqrt()
+}
 
 /// Whether the uniaxial map at `angle` stretches along a tile axis (weft or warp), where the
 /// no-sliding rows do not depend on the compression (module documentation).
@@ -96,7 +102,7 @@ impl<'t> CompressedTile<'t> {
         }
         let first_contact = base.n_stencils() - base.pairs().len();
         Ok(Self {
-            scale: base.area().sqrt(),
+            scale: dof_scale(tile),
             base,
             c0,
             c_dof,
@@ -226,74 +232,38 @@ pub fn solve_compressed(
     start: Option<&[f64]>,
     settings: &EquilibriumSettings,
 ) -> Result<(f64, Equilibrium), PeriodicError> {
-    let start = match start {
-        Some(s) => s.to_vec(),
-        None => super::initial_dofs(tile)?,
-    };
-    if start.len() != 4 * tile.n_vertices() {
-        return Err(PeriodicError::Invalid(format!(
-            "start has {} DOFs, expected {}",
-            start.len(),
-            4 * tile.n_vertices()
-        )));
-    }
-    let scale = (tile.period[0] * tile.period[1]).sqrt();
-    let mut first = start.clone();
+    let mut first = start_dofs(tile, start)?;
+    let scale = dof_scale(tile);
     first.push(scale * guess);
-    let mut x = first.clone();
-    let mut iterations = 0;
-    let mut known: Vec<ContactPair> = Vec::new();
-    let mut restarted = false;
-    for _ in 0..=settings.max_pair_updates {
-        let margin = if restarted {
-            super::solve::RESTART_MARGIN_FACTOR * settings.pair_margin
-        } else {
-            settings.pair_margin
-        };
-        let c = x[x.len() - 1] / scale;
-        let coarse = Coarse::uniaxial(s, c, angle);
-        let near = PeriodicTile::find_pairs(tile, model, &coarse, &x, margin)?;
-        known = super::solve::union(&known, &near);
-        let problem = CompressedTile::new(tile, *model, s, angle, c, known.clone())?;
-        let constraints = problem.constraints()?;
-        let report = match minimize_constrained(&problem, &mut x, &constraints, &settings.newton) {
-            Ok(report) => report,
-            Err(e) if !restarted => {
-                iterations += e.report().map_or(0, |r| r.iterations);
-                restarted = true;
-                x.clone_from(&first);
-                continue;
-            }
-            Err(e) => return Err(e.into()),
-        };
-        iterations += report.iterations;
-        let c = problem.compression(&x);
-        let coarse = Coarse::uniaxial(s, c, angle);
-        let needed = PeriodicTile::find_pairs(tile, model, &coarse, &x, 1.0)?;
-        if needed
-            .iter()
-            .all(|p| problem.base.pairs().binary_search(p).is_ok())
-        {
-            let dofs = x[..x.len() - 1].to_vec();
-            let at = PeriodicTile::new(tile, *model, coarse, problem.base.pairs().to_vec())?;
-            let energy = *report.energy_history.last().unwrap_or(&f64::NAN);
-            return Ok((
-                c,
-                Equilibrium {
-                    coarse,
-                    energy,
-                    density: energy / at.area(),
-                    stress: at.stress(&dofs),
-                    pairs: at.pairs().to_vec(),
-                    closest_approach: at.closest_approach(&dofs),
-                    dofs,
-                    iterations,
-                },
-            ));
-        }
-    }
-    Err(PeriodicError::Invalid(format!(
-        "contact pairs did not settle after {} rebuilds",
-        settings.max_pair_updates
-    )))
+    let compression = |x: &[f64]| x[x.len() - 1] / scale;
+    let settled = settle_pairs(
+        tile,
+        model,
+        &first,
+        settings,
+        |x| Coarse::uniaxial(s, compression(x), angle),
+        |x, pairs| {
+            let problem = CompressedTile::new(tile, *model, s, angle, compression(x), pairs)?;
+            let constraints = problem.constraints()?;
+            Ok((problem, constraints))
+        },
+    )?;
+    let (problem, mut dofs) = (settled.problem, settled.x);
+    let c = problem.compression(&dofs);
+    dofs.pop();
+    let coarse = Coarse::uniaxial(s, c, angle);
+    let at = PeriodicTile::new(tile, *model, coarse, problem.base.pairs().to_vec())?;
+    Ok((
+        c,
+        Equilibrium {
+            coarse,
+            energy: settled.energy,
+            density: settled.energy / at.area(),
+            stress: at.stress(&dofs),
+            pairs: at.pairs().to_vec(),
+            closest_approach: at.closest_approach(&dofs),
+            dofs,
+            iterations: settled.iterations,
+        },
+    ))
 }

@@ -3,7 +3,7 @@
 use super::{ContactPair, PeriodicError, PeriodicTile, YarnModel};
 use crate::coarse::Coarse;
 use nalgebra::{Matrix2, Vector2};
-use solver::{NewtonSettings, minimize_constrained};
+use solver::{LinearConstraints, NewtonSettings, Problem, minimize_constrained};
 use yarn_pattern::strain::sqrt_spd2;
 use yarn_pattern::tile::Tile;
 
@@ -102,7 +102,7 @@ pub struct Equilibrium {
 }
 
 /// How much wider the pair search is when a solve starts over (see [`solve_equilibrium`]).
-pub(super) const RESTART_MARGIN_FACTOR: f64 = 2.0;
+const RESTART_MARGIN_FACTOR: f64 = 2.0;
 
 /// Solves for the equilibrium of `tile` under `coarse`, starting from `start` (or the tile's
 /// rest state), rebuilding the contact pairs until no pair outside the problem comes within
@@ -174,6 +174,34 @@ fn solve_under(
     start: Option<&[f64]>,
     settings: &EquilibriumSettings,
 ) -> Result<Equilibrium, PeriodicError> {
+    let start = start_dofs(tile, start)?;
+    let settled = settle_pairs(
+        tile,
+        model,
+        &start,
+        settings,
+        |_| coarse,
+        |_, pairs| {
+            let problem = PeriodicTile::new(tile, *model, coarse, pairs)?;
+            let constraints = problem.constraints()?;
+            Ok((problem, constraints))
+        },
+    )?;
+    let (problem, x) = (settled.problem, settled.x);
+    Ok(Equilibrium {
+        coarse,
+        energy: settled.energy,
+        density: settled.energy / problem.area(),
+        stress: problem.stress(&x),
+        pairs: problem.pairs().to_vec(),
+        closest_approach: problem.closest_approach(&x),
+        dofs: x,
+        iterations: settled.iterations,
+    })
+}
+
+/// `start`, or the tile's rest state, checked to hold the tile's `4 n` DOFs.
+pub(super) fn start_dofs(tile: &Tile, start: Option<&[f64]>) -> Result<Vec<f64>, PeriodicError> {
     let start = match start {
         Some(s) => s.to_vec(),
         None => initial_dofs(tile)?,
@@ -185,7 +213,31 @@ fn solve_under(
             4 * tile.n_vertices()
         )));
     }
-    let mut x = start.clone();
+    Ok(start)
+}
+
+/// Where [`settle_pairs`] ended: the problem of the last round, its solution, the energy there
+/// and the Newton iterations of every round.
+pub(super) struct Settled<P> {
+    pub problem: P,
+    pub x: Vec<f64>,
+    pub energy: f64,
+    pub iterations: usize,
+}
+
+/// The pair-update rounds of [`solve_equilibrium`] (see there) for a tile problem whose DOFs
+/// begin with the tile's fluctuations: `coarse(x)` is the coarse map at `x` (for the broad
+/// phase), `build(x, pairs)` the problem with these pairs and its constraints. Starts from
+/// `first`, and starts over from it once, with the wider pair search, when a round fails.
+pub(super) fn settle_pairs<P: Problem>(
+    tile: &Tile,
+    model: &YarnModel,
+    first: &[f64],
+    settings: &EquilibriumSettings,
+    coarse: impl Fn(&[f64]) -> Coarse,
+    build: impl Fn(&[f64], Vec<ContactPair>) -> Result<(P, LinearConstraints), PeriodicError>,
+) -> Result<Settled<P>, PeriodicError> {
+    let mut x = first.to_vec();
     let mut iterations = 0;
     let mut known: Vec<ContactPair> = Vec::new();
     let mut restarted = false;
@@ -195,37 +247,27 @@ fn solve_under(
         } else {
             settings.pair_margin
         };
-        let near = PeriodicTile::find_pairs(tile, model, &coarse, &x, margin)?;
+        let near = PeriodicTile::find_pairs(tile, model, &coarse(&x), &x, margin)?;
         known = union(&known, &near);
-        let problem = PeriodicTile::new(tile, *model, coarse, known.clone())?;
-        let constraints = problem.constraints()?;
+        let (problem, constraints) = build(&x, known.clone())?;
         let report = match minimize_constrained(&problem, &mut x, &constraints, &settings.newton) {
             Ok(report) => report,
             Err(e) if !restarted => {
                 // Start over with every pair seen so far (see the documentation).
                 iterations += e.report().map_or(0, |r| r.iterations);
                 restarted = true;
-                x.clone_from(&start);
+                x.copy_from_slice(first);
                 continue;
             }
             Err(e) => return Err(e.into()),
         };
         iterations += report.iterations;
-        let needed = PeriodicTile::find_pairs(tile, model, &coarse, &x, 1.0)?;
-        if needed
-            .iter()
-            .all(|p| problem.pairs().binary_search(p).is_ok())
-        {
-            let energy = *report.energy_history.last().unwrap_or(&f64::NAN);
-            let approach = problem.closest_approach(&x);
-            return Ok(Equilibrium {
-                coarse,
-                energy,
-                density: energy / problem.area(),
-                stress: problem.stress(&x),
-                pairs: problem.pairs().to_vec(),
-                closest_approach: approach,
-                dofs: x,
+        let needed = PeriodicTile::find_pairs(tile, model, &coarse(&x), &x, 1.0)?;
+        if needed.iter().all(|p| known.binary_search(p).is_ok()) {
+            return Ok(Settled {
+                problem,
+                energy: *report.energy_history.last().unwrap_or(&f64::NAN),
+                x,
                 iterations,
             });
         }
@@ -237,7 +279,7 @@ fn solve_under(
 }
 
 /// The sorted union of two sorted pair lists.
-pub(super) fn union(a: &[ContactPair], b: &[ContactPair]) -> Vec<ContactPair> {
+fn union(a: &[ContactPair], b: &[ContactPair]) -> Vec<ContactPair> {
     let mut out: Vec<ContactPair> = a.iter().chain(b).copied().collect();
     out.sort_unstable();
     out.dedup();
