@@ -15,14 +15,14 @@ mod common;
 use common::{assert_problem_derivatives, perturbed, stockinette};
 
 /// Exact gradient and Hessian of the energy in the fluctuations, the twists and `ℓ c`, along
-/// weft and warp, against central differences; and `∂E/∂(ℓc) = −ℓ σ_c`, the gathered
+/// weft, bias and warp, against central differences; and `∂E/∂(ℓc) = −ℓ σ_c`, the gathered
 /// orthogonal stress (seed 002 Eq. 10) of the tile under the map at that compression.
 #[test]
 fn compressed_tile_derivatives_are_exact_and_its_gradient_is_the_orthogonal_stress() {
     let tile = stockinette();
     let model = YarnModel::default_for_radius(tile.radius);
     let n = tile.n_vertices();
-    for direction in [Direction::Weft, Direction::Warp] {
+    for direction in [Direction::Weft, Direction::Bias, Direction::Warp] {
         let (s, c0, c) = (0.12, 0.03, 0.05);
         let angle = direction.angle();
         let u = perturbed(&tile);
@@ -57,16 +57,23 @@ fn compressed_tile_derivatives_are_exact_and_its_gradient_is_the_orthogonal_stre
             -problem.scale() * sigma_c
         );
     }
-    // The bias keeps the root-find: its no-sliding rows turn with c.
-    let err = CompressedTile::new(&tile, model, 0.1, Direction::Bias.angle(), 0.0, Vec::new())
-        .err()
-        .expect("the bias has no compression DOF");
-    assert!(err.to_string().contains("tile axis"), "{err}");
+    let err = CompressedTile::new(
+        &tile,
+        model,
+        0.1,
+        Direction::Bias.angle(),
+        f64::NAN,
+        Vec::new(),
+    )
+    .err()
+    .expect("a non-finite compression is refused");
+    assert!(err.to_string().contains("must be finite"), "{err}");
 }
 
-/// Along weft and warp, the curve with the compression as a DOF has the root-find's
-/// compressions and stresses (one continuation from the rest state, the same stretches), zero
-/// orthogonal stress to the root-find's tolerance, and takes fewer Newton iterations.
+/// Along weft, bias and warp, the curve with the compression as a DOF (along the bias a
+/// prediction finished by the root-find) has the root-find's compressions and stresses (one
+/// continuation from the rest state, the same stretches), zero orthogonal stress to the
+/// root-find's tolerance, and takes fewer Newton iterations.
 #[test]
 fn compression_dof_curve_matches_the_root_find_in_fewer_iterations() {
     let tile = stockinette();
@@ -79,7 +86,7 @@ fn compression_dof_curve_matches_the_root_find_in_fewer_iterations() {
         compression_dof: false,
         ..CurveSettings::default()
     };
-    for direction in [Direction::Weft, Direction::Warp] {
+    for direction in [Direction::Weft, Direction::Bias, Direction::Warp] {
         let a = uniaxial_curve(&tile, &model, direction, &s, &dof).unwrap();
         let b = uniaxial_curve(&tile, &model, direction, &s, &root).unwrap();
         let its =

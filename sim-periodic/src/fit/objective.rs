@@ -12,9 +12,11 @@
 //!    found at a few stretches evenly spaced in `[0, s_max]`
 //!    ([`ObjectiveSettings::compression_nodes`], [`crate::curves::uniaxial_curve`]) and
 //!    interpolated piecewise linearly. The paper uses the two ends; the default here, 3, keeps
-//!    the midpoint that the continuation to `s_max` solves anyway. Along weft and warp each
-//!    node is one Newton solve with `c` as a DOF ([`crate::periodic::solve_compressed`],
-//!    [`CurveSettings::compression_dof`]); along the bias, a root-find over solves at fixed `c`.
+//!    the midpoint that the continuation to `s_max` solves anyway. Each node is one Newton
+//!    solve with `c` as a DOF ([`crate::periodic::solve_compressed`],
+//!    [`CurveSettings::compression_dof`]; along the bias with the no-sliding rows frozen, then
+//!    one solve at the compression found), a root-find over solves at fixed `c` where that
+//!    leaves an orthogonal stress above tolerance or fails.
 //! 3. **Stress samples.** At `n` stretches evenly spaced in `[0, s_max]` (`s_max`: the target
 //!    curve's last stretch) the tile is solved under `F = (1+s) u uᵀ + (1 − c(s)) v vᵀ` and
 //!    the stretch stress `σ_s = uᵀPu` gathered (Eq. 10). A sample at a node's stretch has
@@ -103,8 +105,9 @@
 //! sliding rows' coefficients `F n` stay parallel to `n`, so the rows keep their null space
 //! and this is what the nodes do now ([`crate::periodic::solve_compressed`]); along the bias
 //! they would be bilinear in `c` and the positions, no longer the linear constraints the
-//! constrained Newton solver takes, and the bias keeps the root-find. Measured in
-//! *The compression as a DOF* below.
+//! constrained Newton solver takes, so there the joint solve keeps the rows of its last pair
+//! round's compression and one solve at the compression found follows. Measured in *The
+//! compression as a DOF* below.
 //!
 //! **At the swarm's own points** the objective costs about twice what it costs at uniform
 //! points of the box. The acrylic seed's first 40 swarm evaluations (`yarn-fit`'s settings,
@@ -179,6 +182,20 @@
 //! curve (compressions up to 0.25 apart): 9 of them at `g` from 3 to 2800, far from any fit,
 //! where the tiles jam, and one at `g` 0.96 (6·10⁻³ relative). So the change moves most fits
 //! onto another path; the fits' own numbers are in `yarn-fit`'s and the benchmarks'.
+//!
+//! **The bias nodes too** (joint solve under frozen rows, then one solve at the compression
+//! found). `cargo bench -p bench --bench yarn_objective -- all --points 10` with the binaries
+//! before and after, interleaved (release, 2026-11-30): the same solved and failed counts on
+//! every fabric; Newton iterations per solved evaluation 14–22 % fewer (garters 338 → 270 and
+//! 424 → 360, ribs 402 → 346 and 398 → 343, seeds 351 → 274 and 351 → 280, stockinettes
+//! 182 → 148 and 183 → 142, acrylic → babyredo). On one thread the evaluations took 27.7–28.5 s
+//! against 25.2–25.3 s (three and two runs, −10 %); on two threads the run-to-run spread
+//! (18.2–22.3 s against 17.7–20.6 s, four runs each) hides it. A likely reason, not measured:
+//! this benchmark evaluates one point at a time and its three directions are its only
+//! parallelism, so on two cores its wall time follows the two directions that share a core
+//! rather than all the work, while the fit's swarm and local starts keep both cores busy with
+//! whole evaluations. No bias node needed the finishing root-find at
+//! these points; one bias joint solve failed and fell back to the root-find.
 
 use crate::coarse::Coarse;
 use crate::curves::{CurveSettings, directional_stress, uniaxial_curve_states};

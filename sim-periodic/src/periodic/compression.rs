@@ -13,12 +13,18 @@
 //! ∂E_k/∂c = g·d,    ∂²E_k/∂c ∂q = H d,    ∂²E_k/∂c² = dᵀ H d.
 //! ```
 //!
-//! **Why along a tile axis only.** The no-sliding rows `ũ · (F N) = 0` (seed 004 Eq. 3) are
-//! linear in `ũ` with coefficients `F N`. Along weft and warp `F` is diagonal, so `F N` is
-//! parallel to `N` whatever `c` is, and the rows (homogeneous, each scaled by its largest
-//! entry in the solver) do not depend on `c`: the problem keeps the linear constraints the
-//! constrained Newton solver takes. Along the bias `F N` turns with `c`, the rows become
-//! bilinear in `c` and `ũ`, and that direction keeps the root-find.
+//! **Along a tile axis, and along the bias as a predictor.** The no-sliding rows
+//! `ũ · (F N) = 0` (seed 004 Eq. 3) are linear in `ũ` with coefficients `F N`. Along weft and
+//! warp `F` is diagonal, so `F N` is parallel to `N` whatever `c` is, and the rows
+//! (homogeneous, each scaled by its largest entry in the solver) do not depend on `c`: the
+//! problem keeps the linear constraints the constrained Newton solver takes, and its
+//! stationarity is exactly `σ_c = 0`. Along the bias `F N` turns with `c`, so the rows would
+//! be bilinear in `c` and `ũ`. There the problem keeps the rows of the compression it was
+//! built at, `F(c₀) N` ([`solve_compressed`] rebuilds it at the current `c` with every pair
+//! update), and its stationarity is `σ_c = 0` under rows a little off: a prediction of the
+//! root, which [`crate::curves`] finishes with a root-find at fixed compressions (usually one
+//! or two solves instead of about six). The energy, its derivatives and `∂E/∂c = −A σ_c` at
+//! fixed fluctuations hold in every direction; only the constraints are frozen.
 //!
 //! The DOF is `q_c = ℓ c` with `ℓ = √(pₓ p_y)`, a length of the tile's size, so that its
 //! gradient `−ℓ σ_c` is a force like the other DOFs' and its Hessian entry `ℓ² ∂²Ψ/∂c²`
@@ -44,13 +50,15 @@ fn dof_scale(tile: &Tile) -> f64 {
 }
 
 /// Whether the uniaxial map at `angle` stretches along a tile axis (weft or warp), where the
-/// no-sliding rows do not depend on the compression (module documentation).
+/// no-sliding rows do not depend on the compression and the joint solve is exact (module
+/// documentation).
 pub fn along_tile_axis(angle: f64) -> bool {
     angle.sin().abs() < 1e-12 || angle.cos().abs() < 1e-12
 }
 
-/// [`PeriodicTile`] under `Coarse::uniaxial(s, c, angle)` with `ℓ c` as its last DOF (module
-/// documentation). Flat only.
+/// [`PeriodicTile`] under `Coarse::uniaxial(s, c, angle)` with `ℓ c` as its last DOF and the
+/// no-sliding rows of `c₀` (module documentation; they do not depend on `c` along a tile axis).
+/// Flat only.
 pub struct CompressedTile<'t> {
     base: PeriodicTile<'t>,
     /// The compression the base problem was built at.
@@ -68,8 +76,8 @@ pub struct CompressedTile<'t> {
 }
 
 impl<'t> CompressedTile<'t> {
-    /// The problem at stretch `s` along `angle` (a tile axis), built at compression `c0` with
-    /// the given pairs.
+    /// The problem at stretch `s` along `angle`, built at compression `c0` (its no-sliding rows'
+    /// compression) with the given pairs.
     pub fn new(
         tile: &'t Tile,
         model: YarnModel,
@@ -78,9 +86,9 @@ impl<'t> CompressedTile<'t> {
         c0: f64,
         pairs: Vec<ContactPair>,
     ) -> Result<Self, PeriodicError> {
-        if !along_tile_axis(angle) {
+        if !(s.is_finite() && c0.is_finite() && angle.is_finite()) {
             return Err(PeriodicError::Invalid(format!(
-                "the compression is a DOF only along a tile axis, not at angle {angle}"
+                "stretch {s}, compression {c0} and angle {angle} must be finite"
             )));
         }
         let base = PeriodicTile::new(tile, model, Coarse::uniaxial(s, c0, angle), pairs)?;
@@ -122,8 +130,8 @@ impl<'t> CompressedTile<'t> {
         x[self.c_dof] / self.scale
     }
 
-    /// The linear constraints of the base problem ([`PeriodicTile::constraints`]), with the
-    /// compression DOF free.
+    /// The linear constraints of the base problem ([`PeriodicTile::constraints`], the rows of
+    /// `c₀`), with the compression DOF free.
     pub fn constraints(&self) -> Result<LinearConstraints, PeriodicError> {
         let c = self.base.constraints()?;
         Ok(LinearConstraints::new(
@@ -218,11 +226,18 @@ impl Problem for CompressedTile<'_> {
     }
 }
 
-/// The equilibrium at stretch `s` along `angle` (a tile axis) with zero orthogonal stress,
-/// in one Newton solve over the fluctuations, the twists and the compression (module
-/// documentation), starting from `start` (the tile's rest state if `None`) at compression
-/// `guess`. Pair updates and the restart with the wider pair set are those of
-/// [`super::solve_equilibrium`]. Returns the compression and the equilibrium under its map.
+/// The equilibrium at stretch `s` along `angle` with zero orthogonal stress, in one Newton
+/// solve over the fluctuations, the twists and the compression (module documentation),
+/// starting from `start` (the tile's rest state if `None`) at compression `guess`. Pair
+/// updates and the restart with the wider pair set are those of [`super::solve_equilibrium`].
+/// Returns the compression and the equilibrium under its map.
+///
+/// Along a tile axis ([`along_tile_axis`]) the orthogonal stress of that equilibrium is zero to
+/// the solver's gradient tolerance. Along any other direction the joint solve's rows are
+/// frozen at the compression of its last pair round; the tile is then solved once more at the
+/// compression found, with [`super::solve_equilibrium`] from the joint solve's state (its
+/// Newton iterations counted), so the equilibrium returned is exact under its own map, and its
+/// orthogonal stress is small but not zero: a prediction to finish with a root-find.
 pub fn solve_compressed(
     tile: &Tile,
     model: &YarnModel,
@@ -252,6 +267,12 @@ pub fn solve_compressed(
     let c = problem.compression(&dofs);
     dofs.pop();
     let coarse = Coarse::uniaxial(s, c, angle);
+    if !along_tile_axis(angle) {
+        // The rows of the last round's compression: re-solved under the rows of `c`.
+        let mut eq = super::solve_equilibrium(tile, model, coarse, Some(&dofs), settings)?;
+        eq.iterations += settled.iterations;
+        return Ok((c, eq));
+    }
     let at = PeriodicTile::new(tile, *model, coarse, problem.base.pairs().to_vec())?;
     Ok((
         c,
