@@ -188,6 +188,12 @@
 //! 9.3 → 10.4 %), 4 of 8 within 10 % in both runs, and 9.3 → 10.5 % on the paper's grid (4 → 5
 //! of 8). Nothing in the objective's definition changed; the babyredo seed, which had the same
 //! fit (`g` 0.1054) in the two runs before, shows how far one fit moves with its path.
+//! `cargo bench -p bench --bench yarn_fit -- babyredo-rib acrylic-yarn-rib` right after, the
+//! same fits: babyredo rib 253.9 s (swarm 84.5 s, local search 169.4 s; shell fit 2.7 s more)
+//! against 298.3 s (110.1 + 188.2 s), i.e. 0.38 against 0.49 s per swarm evaluation and 0.74
+//! against 0.78 s per local one; acrylic rib 259.3 s (95.0 + 164.2 s; shell 11.0 s) against
+//! 292.3 s (120.1 + 172.3 s). Shell fit and yarn fit together: 256.6 and 270.3 s, 10–15 %
+//! under the goal.
 //!
 //! **Hold-out.** The fit's settings were chosen while looking at one fabric only,
 //! `acrylic-yarn-stockinette` (the development fabric); the other seven were first fitted by

@@ -1,4 +1,4 @@
-//! The tile under a uniaxial map along a tile axis, with the compression `c` as one more DOF.
+//! The tile under a uniaxial map, with the compression `c` as one more DOF.
 //!
 //! Under `F₂ = (1 + s) u uᵀ + (1 − c) v vᵀ` the stress orthogonal to the stretch is
 //! `σ_c = vᵀPv = −(1/A) ∂E/∂c` at fixed fluctuations (`∂F₂/∂c = −v vᵀ`, [`PeriodicTile::stress`]).
@@ -22,9 +22,12 @@
 //! be bilinear in `c` and `ũ`. There the problem keeps the rows of the compression it was
 //! built at, `F(c₀) N` ([`solve_compressed`] rebuilds it at the current `c` with every pair
 //! update), and its stationarity is `σ_c = 0` under rows a little off: a prediction of the
-//! root, which [`crate::curves`] finishes with a root-find at fixed compressions (usually one
-//! or two solves instead of about six). The energy, its derivatives and `∂E/∂c = −A σ_c` at
-//! fixed fluctuations hold in every direction; only the constraints are frozen.
+//! root, solved once more at the compression found under its own rows. Where the orthogonal
+//! stress left is above the root-find's tolerance, [`crate::curves`] finishes with a root-find
+//! at fixed compressions; on the stockinette's bias curve and at `yarn_objective`'s fixed
+//! points of the eight shared fabrics no point needed it. The energy, its derivatives and
+//! `∂E/∂c = −A σ_c` at fixed fluctuations hold in every direction; only the constraints are
+//! frozen.
 //!
 //! The DOF is `q_c = ℓ c` with `ℓ = √(pₓ p_y)`, a length of the tile's size, so that its
 //! gradient `−ℓ σ_c` is a force like the other DOFs' and its Hessian entry `ℓ² ∂²Ψ/∂c²`
@@ -236,8 +239,8 @@ impl Problem for CompressedTile<'_> {
 /// the solver's gradient tolerance. Along any other direction the joint solve's rows are
 /// frozen at the compression of its last pair round; the tile is then solved once more at the
 /// compression found, with [`super::solve_equilibrium`] from the joint solve's state (its
-/// Newton iterations counted), so the equilibrium returned is exact under its own map, and its
-/// orthogonal stress is small but not zero: a prediction to finish with a root-find.
+/// Newton iterations counted), so the equilibrium returned is exact under its own map; its
+/// orthogonal stress is small, not zero by construction (module documentation).
 pub fn solve_compressed(
     tile: &Tile,
     model: &YarnModel,
