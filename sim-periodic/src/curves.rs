@@ -122,6 +122,14 @@ pub struct CurveSettings {
     pub compression_dof: bool,
 }
 
+impl CurveSettings {
+    /// The root-find's tolerance on `|σ_c|` at stretch stress `sigma_s`:
+    /// `stress_abs_tol + stress_rel_tol · |σ_s|` (N/m).
+    pub fn stress_tolerance(&self, sigma_s: f64) -> f64 {
+        self.stress_abs_tol + self.stress_rel_tol * sigma_s.abs()
+    }
+}
+
 impl Default for CurveSettings {
     fn default() -> Self {
         Self {
@@ -312,7 +320,7 @@ impl Along<'_> {
                 _ => return self.root_find(s, guess, warm, settings),
             };
         let (sigma_s, sigma_c) = directional_stress(&eq, angle);
-        if sigma_c.abs() <= settings.stress_abs_tol + settings.stress_rel_tol * sigma_s.abs() {
+        if sigma_c.abs() <= settings.stress_tolerance(sigma_s) {
             let point = CurvePoint {
                 s,
                 c,
@@ -382,7 +390,7 @@ impl Along<'_> {
             iterations += eq.iterations;
             last_dofs = Some(eq.dofs.clone());
             let (ss, sc) = directional_stress(&eq, angle);
-            let f_tol = settings.stress_abs_tol + settings.stress_rel_tol * ss.abs();
+            let f_tol = settings.stress_tolerance(ss);
             // A converged point needs no next step, so no slope.
             let df = if settings.exact_slope && sc.abs() > f_tol {
                 compression_slope(tile, model, &eq, angle).map_err(|source| {

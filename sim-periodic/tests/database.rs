@@ -172,9 +172,7 @@ fn uniaxial_curve_has_zero_orthogonal_stress_and_stress_is_dpsi_ds() {
     let s = [0.0, 0.05, 0.1 - h, 0.1, 0.1 + h];
     let curve = uniaxial_curve(&tile, &model, Direction::Weft, &s, &settings).unwrap();
     for p in &curve {
-        assert!(
-            p.sigma_c.abs() <= settings.stress_abs_tol + settings.stress_rel_tol * p.sigma_s.abs()
-        );
+        assert!(p.sigma_c.abs() <= settings.stress_tolerance(p.sigma_s));
         eprintln!(
             "s {:.3} c {:.5} σ_s {:.5} N/m, {} solves",
             p.s, p.c, p.sigma_s, p.solves

@@ -34,7 +34,7 @@
 //! a stiffness of their order (the solver's regularizing shifts and tolerances are shared).
 
 use super::filter::COLLISION_ETA;
-use super::solve::{settle_pairs, start_dofs};
+use super::solve::{equilibrium_of, settle_pairs, start_dofs};
 use super::{
     ContactPair, Equilibrium, EquilibriumSettings, PeriodicError, PeriodicTile, YarnModel,
 };
@@ -279,15 +279,6 @@ pub fn solve_compressed(
     let at = PeriodicTile::new(tile, *model, coarse, problem.base.pairs().to_vec())?;
     Ok((
         c,
-        Equilibrium {
-            coarse,
-            energy: settled.energy,
-            density: settled.energy / at.area(),
-            stress: at.stress(&dofs),
-            pairs: at.pairs().to_vec(),
-            closest_approach: at.closest_approach(&dofs),
-            dofs,
-            iterations: settled.iterations,
-        },
+        equilibrium_of(&at, dofs, settled.energy, settled.iterations),
     ))
 }

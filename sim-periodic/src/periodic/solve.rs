@@ -187,17 +187,32 @@ fn solve_under(
             Ok((problem, constraints))
         },
     )?;
-    let (problem, x) = (settled.problem, settled.x);
-    Ok(Equilibrium {
-        coarse,
-        energy: settled.energy,
-        density: settled.energy / problem.area(),
-        stress: problem.stress(&x),
+    Ok(equilibrium_of(
+        &settled.problem,
+        settled.x,
+        settled.energy,
+        settled.iterations,
+    ))
+}
+
+/// The [`Equilibrium`] of `problem` (its coarse map and pairs) at the solution `dofs`, with
+/// the energy there and the Newton iterations that reached it.
+pub(super) fn equilibrium_of(
+    problem: &PeriodicTile,
+    dofs: Vec<f64>,
+    energy: f64,
+    iterations: usize,
+) -> Equilibrium {
+    Equilibrium {
+        coarse: problem.coarse,
+        energy,
+        density: energy / problem.area(),
+        stress: problem.stress(&dofs),
         pairs: problem.pairs().to_vec(),
-        closest_approach: problem.closest_approach(&x),
-        dofs: x,
-        iterations: settled.iterations,
-    })
+        closest_approach: problem.closest_approach(&dofs),
+        dofs,
+        iterations,
+    }
 }
 
 /// `start`, or the tile's rest state, checked to hold the tile's `4 n` DOFs.
