@@ -177,6 +177,7 @@ pub fn all_figures() -> Vec<FigureSpec> {
         persistent_time_vs_error::spec(),
         yarn_fit::spec(),
         yarn_fit_ablations::spec(),
+        yarn_fit_seeds::spec(),
         cross_method::spec(),
         closed_loop::spec(),
     ]

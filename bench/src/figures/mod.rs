@@ -35,3 +35,4 @@ pub mod shell_nh_vs_stvk;
 pub mod shell_time_vs_error;
 pub mod yarn_fit;
 pub mod yarn_fit_ablations;
+pub mod yarn_fit_seeds;
