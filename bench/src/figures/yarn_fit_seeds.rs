@@ -9,7 +9,10 @@
 //! comfort-range error (the paper's Fig. 15 metric, on the fit's own samples and on the
 //! paper's even grid) against its final `g`, and what keeping the lowest `g` of the first
 //! `k` seeds gives for `k` = 1, 2, 4: more swarms lower `g`, the quantity the fit minimizes,
-//! and the question is whether the comfort-range error follows it.
+//! and the question is whether the comfort-range error follows it. The table also splits each
+//! fit's `g` into its comfort-range stretch terms (the only part the comfort-range error
+//! measures), its comfort-range compression terms and its power-range terms, to show what a
+//! lower `g` was bought with; the manifest keeps each fit's parameters.
 //!
 //! Quick mode: the development fabric with `yarn-fit`'s quick settings and two seeds.
 
@@ -60,6 +63,23 @@ fn best_of(fits: &[SeedFit], fabric: usize, k: usize) -> Option<&SeedFit> {
             Some(b) if b.result.evaluation.value <= f.result.evaluation.value => Some(b),
             _ => Some(f),
         })
+}
+
+/// `g` (Eq. 11) split into its comfort-range stretch terms (the only part the comfort-range
+/// error measures), its comfort-range compression terms and its power-range terms (stretch
+/// and compression), which sum to `g`.
+fn g_terms(e: &Evaluation) -> [f64; 3] {
+    let n = e.samples.len().max(1) as f64;
+    let mut terms = [0.0; 3];
+    for p in &e.samples {
+        if p.comfort {
+            terms[0] += p.stretch_term.powi(2) / n;
+            terms[1] += p.compression_term.powi(2) / n;
+        } else {
+            terms[2] += (p.stretch_term.powi(2) + p.compression_term.powi(2)) / n;
+        }
+    }
+    terms
 }
 
 fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
@@ -116,18 +136,30 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         "objective",
         "comfort_error",
         "comfort_error_paper_grid",
+        "power_error",
+        "compression_error",
+        "g_comfort_stretch",
+        "g_comfort_compression",
+        "g_power",
         "swarm_objective",
         "swarm_seconds",
         "local_seconds",
         "yarn_seconds",
     ]);
     for f in &fits {
+        let e = &f.result.evaluation;
+        let [comfort_stretch, comfort_compression, power] = g_terms(e);
         data.push_row(vec![
             f.fabric as f64,
             f.seed as f64,
-            f.result.evaluation.value,
-            f.result.evaluation.comfort_error,
+            e.value,
+            e.comfort_error,
             f.paper_grid.comfort_error,
+            e.power_error,
+            e.compression_error,
+            comfort_stretch,
+            comfort_compression,
+            power,
             f.result.swarm_best.as_ref().map_or(f64::NAN, |b| b.1),
             f.result.seconds[0],
             f.result.seconds[1],
@@ -285,6 +317,11 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         summary,
         config: serde_json::json!({
             "fabrics": all.iter().map(|f| f.name.clone()).collect::<Vec<_>>(),
+            "fits": fits.iter().map(|f| serde_json::json!({
+                "fabric": all[f.fabric].name, "seed": f.seed,
+                "parameters": f.result.values, "normalized": f.result.x,
+                "local_status": f.result.local_status, "failed_evaluations": f.result.failed,
+            })).collect::<Vec<_>>(),
             "seeds": seeds,
             "settings": format!("{:?}", settings(ctx.quick)),
             "restarts_per_fit": 1,
