@@ -582,9 +582,9 @@ pub const SAMPLE_LAYOUT: SampleLayout = SampleLayout::ComfortHalf;
 /// rib is above 10 % with every seed. Four swarms would also double the fit's cost (the
 /// slowest single-swarm fit took 195 s). So more swarms are not what the remaining fabrics
 /// need: there the paper's objective, not the search, stands between the fit and 10 %.
-/// Split into its terms (a throw-away probe rerunning those fits, 2026-11-30), the lower `g`
-/// of each of the three pairs above has the larger comfort-range stretch term, the only part
-/// the comfort-range error measures (higher → lower `g`: acrylic rib 0.0148 → 0.0189,
+/// Split into its terms (`yarn-fit-seeds`' columns `g_comfort_stretch` and `g_power`), the
+/// lower `g` of each of the three pairs above has the larger comfort-range stretch term, the
+/// only part the comfort-range error measures (higher → lower `g`: acrylic rib 0.0148 → 0.0189,
 /// babyredo garter 0.0043 → 0.0184, babyredo stockinette 0.0028 → 0.0077), and buys its
 /// decrease in the power range (stretch plus compression terms 0.119 → 0.084, 0.217 → 0.136,
 /// 0.053 → 0.031).
