@@ -2,7 +2,7 @@
 //! swarms would bring every fabric within 10 % (beyond the paper).
 //!
 //! Every shared fabric is fitted as in `yarn-fit` (its shell targets, geometry, parameter
-//! space and [`settings`]), but with one swarm per fit ([`SwarmSettings::restarts`] = 1)
+//! space and [`settings`]), but with one swarm per fit ([`SwarmSettings::restarts`](sim_periodic::fit::SwarmSettings::restarts) = 1)
 //! and the swarm's seed running over [`SEEDS`]. `yarn-fit` runs the first two seeds as its two
 //! restarts and keeps the lower final objective `g`, so its result is the "best of 2" here
 //! (the fits are deterministic for a seed). The figure plots, per fabric, each seed's
@@ -18,7 +18,7 @@
 
 use std::time::Instant;
 
-use sim_periodic::fit::{Evaluation, FitResult, Journal, SwarmSettings, fit};
+use sim_periodic::fit::{Evaluation, FitResult, Journal, fit};
 use sim_periodic::periodic::YarnModel;
 
 use super::yarn_fit::{
@@ -41,7 +41,7 @@ pub fn spec() -> FigureSpec {
 }
 
 /// The swarm seeds of the full run, one fit each; the first two are `yarn-fit`'s restarts
-/// ([`super::yarn_fit::RESTARTS`] from [`SwarmSettings::default`]'s seed 2022).
+/// ([`super::yarn_fit::RESTARTS`] from [`SwarmSettings::default`](sim_periodic::fit::SwarmSettings::default)'s seed 2022).
 pub const SEEDS: [u64; 4] = [2022, 2023, 2024, 2025];
 
 /// One fit with one seed.
@@ -102,11 +102,8 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 .swarm
                 .as_mut()
                 .ok_or_else(|| anyhow::anyhow!("yarn-fit's settings have no swarm"))?;
-            *swarm = SwarmSettings {
-                seed,
-                restarts: 1,
-                ..swarm.clone()
-            };
+            swarm.seed = seed;
+            swarm.restarts = 1;
             let t = Instant::now();
             let result = fit(
                 &geometry,
