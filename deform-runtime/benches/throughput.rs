@@ -1,6 +1,11 @@
 //! Per-frame throughput of the CPU deformer on ≥ 10 M yarn vertices (stockinette tile on a
-//! 64 × 64-quad sheet covering 320 × 320 pattern periods, f32), for the full pipeline, the
-//! naive embedding, an all-identity frame (lookups skipped) and a static frame.
+//! 64 × 64-quad sheet covering 320 × 320 pattern periods, f32; [`synthetic::throughput_scene`])
+//! for the full pipeline, the naive embedding, an all-identity frame (lookups skipped) and a
+//! static frame, beside the roofline of the per-vertex stage measured in the same run
+//! ([`deform_runtime::roofline`]): the triad bandwidth over the bytes each vertex streams, and
+//! the rate of the kernel's arithmetic from registers. The full frame's throughput is printed
+//! as a fraction of the lower roof and as a ratio to MADYPG's GPU runtime (42.7 M vertices in
+//! 63 ms on a GTX 1080 Ti, paper 004 Table 1).
 //!
 //! `cargo bench -p deform-runtime --bench throughput`; set `DEFORM_BENCH_CELLS` to change the
 //! number of periods per side (default 320 → 10.2 M vertices).
@@ -9,8 +14,11 @@
 #![allow(missing_docs)]
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use deform_runtime::pipeline::{SetupOptions, build};
+use deform_runtime::roofline::{Roofline, VertexCost};
 use deform_runtime::{DeformOptions, synthetic};
+
+/// MADYPG's GPU runtime, paper 004 Table 1 (vertices per second).
+const MADYPG_GPU: f64 = 42.7e6 / 0.063;
 
 fn bench(c: &mut Criterion) {
     let tile = yarn_pattern::pyp::read_pyp(concat!(
@@ -23,53 +31,49 @@ fn bench(c: &mut Criterion) {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(320.0);
-    let db = synthetic::database(
-        &tile,
-        synthetic::uniform_axes(9),
-        synthetic::multilinear(tile.radius),
-    );
-    let mesh = synthetic::grid_mesh(64, 64, cells * tile.period[0], cells * tile.period[1]);
-    let options = SetupOptions {
-        uv_scale: 1.0,
-        ..SetupOptions::default()
-    };
-    let mut d = build::<f32>(&tile, &db, &mesh, &options).expect("setup");
+    let scene = synthetic::throughput_scene::<f32>(&tile, cells).expect("setup");
+    let (mut d, rest, moved) = (scene.deformer, scene.rest, scene.moved);
     let n = d.embedding().len();
     eprintln!(
-        "throughput bench: {n} yarn vertices, {} triangles",
-        d.mesh().n_faces()
+        "throughput bench: {n} yarn vertices, {} triangles, {} threads",
+        d.mesh().n_faces(),
+        rayon::current_num_threads()
     );
-    let rest: Vec<[f64; 3]> = synthetic::map_uvs(&mesh, |uv| [uv[0], uv[1], 0.0]);
-    let moved: Vec<[f64; 3]> = synthetic::map_uvs(&mesh, |uv| synthetic::wave(uv, 0.05));
+    let roof = Roofline::measure(VertexCost::f32_kernel());
+    eprintln!(
+        "roofline: triad {:.1} GB/s over {} B/vertex = {:.0} M vertices/s; arithmetic ({} ops/vertex) {:.0} M vertices/s; lower roof {:.0} M vertices/s ({}-bound)",
+        roof.bandwidth / 1e9,
+        roof.cost.dram_bytes(),
+        roof.memory() / 1e6,
+        roof.cost.ops().total(),
+        roof.arithmetic / 1e6,
+        roof.roof() / 1e6,
+        roof.bound()
+    );
+    for s in roof.cost.stages() {
+        eprintln!(
+            "  stage {:8} {:3} B memory, {:3} B cache, {:3} mul {:3} add {} sqrt {} div per vertex",
+            s.name, s.dram_bytes, s.cache_bytes, s.ops.mul, s.ops.add, s.ops.sqrt, s.ops.div
+        );
+    }
     let mut group = c.benchmark_group("deform_frame");
     group.sample_size(10);
     group.throughput(Throughput::Elements(n as u64));
+    let base = DeformOptions {
+        skip_static: false,
+        ..DeformOptions::default()
+    };
     let cases: [(&str, DeformOptions, &Vec<[f64; 3]>); 3] = [
-        (
-            "full",
-            DeformOptions {
-                skip_static: false,
-                ..DeformOptions::default()
-            },
-            &moved,
-        ),
+        ("full", base, &moved),
         (
             "naive_embedding",
             DeformOptions {
                 displacement: false,
-                skip_static: false,
-                ..DeformOptions::default()
+                ..base
             },
             &moved,
         ),
-        (
-            "identity_skipped",
-            DeformOptions {
-                skip_static: false,
-                ..DeformOptions::default()
-            },
-            &rest,
-        ),
+        ("identity_skipped", base, &rest),
     ];
     for (name, opts, positions) in cases {
         d.set_options(opts).expect("options");
@@ -79,6 +83,27 @@ fn bench(c: &mut Criterion) {
     d.frame(&moved).expect("frame");
     group.bench_function("static", |b| b.iter(|| d.frame(&moved).expect("frame")));
     group.finish();
+
+    // The full frame against the roof: best of 10 frames, mesh stage included.
+    d.set_options(base).expect("options");
+    let best = (0..10)
+        .map(|_| {
+            let s = d.frame(&moved).expect("frame");
+            (s.mesh_seconds + s.vertex_seconds, s.vertex_seconds)
+        })
+        .fold((f64::INFINITY, f64::INFINITY), |a, b| {
+            (a.0.min(b.0), a.1.min(b.1))
+        });
+    let (frame, vertex) = (n as f64 / best.0, n as f64 / best.1);
+    eprintln!(
+        "full frame, {n} vertices: {:.1} ms = {:.0} M vertices/s = {:.1} % of the roof; vertex stage alone {:.0} M vertices/s = {:.1} %; {:.2}× MADYPG's GPU (0.68 G vertices/s)",
+        best.0 * 1e3,
+        frame / 1e6,
+        100.0 * roof.fraction(frame),
+        vertex / 1e6,
+        100.0 * roof.fraction(vertex),
+        frame / MADYPG_GPU
+    );
 }
 
 criterion_group!(benches, bench);

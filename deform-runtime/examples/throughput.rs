@@ -1,7 +1,8 @@
 //! Release-binary throughput measurement: `cargo run --release -p deform-runtime --example
-//! throughput -- [cells_per_side] [frames]` prints per-configuration frame times.
+//! throughput -- [cells_per_side] [frames]` prints per-configuration frame times (wall and
+//! process CPU time) of the throughput scene beside the roofline measured in the same run.
 
-use deform_runtime::pipeline::{SetupOptions, build};
+use deform_runtime::roofline::{Roofline, VertexCost};
 use deform_runtime::{DeformOptions, synthetic};
 use std::time::Instant;
 
@@ -31,31 +32,15 @@ fn main() {
     ))
     .expect("stockinette test data")
     .tile;
-    let db = synthetic::database(
-        &tile,
-        synthetic::uniform_axes(9),
-        synthetic::multilinear(tile.radius),
-    );
-    let mesh = synthetic::grid_mesh(64, 64, cells * tile.period[0], cells * tile.period[1]);
     let t = Instant::now();
-    let mut d = build::<f32>(
-        &tile,
-        &db,
-        &mesh,
-        &SetupOptions {
-            uv_scale: 1.0,
-            ..Default::default()
-        },
-    )
-    .expect("setup");
+    let scene = synthetic::throughput_scene::<f32>(&tile, cells).expect("setup");
+    let (mut d, rest, moved) = (scene.deformer, scene.rest, scene.moved);
     let n = d.embedding().len();
     println!(
         "setup {:.2} s, {n} yarn vertices, {} threads",
         t.elapsed().as_secs_f64(),
         rayon::current_num_threads()
     );
-    let rest = synthetic::map_uvs(&mesh, |uv| [uv[0], uv[1], 0.0]);
-    let moved = synthetic::map_uvs(&mesh, |uv| synthetic::wave(uv, 0.05));
     let base = DeformOptions {
         skip_static: false,
         ..DeformOptions::default()
@@ -98,36 +83,14 @@ fn main() {
             &rest,
         ),
     ];
-    // Memory bandwidth reference: a rayon triad a[i] = b[i] + 0.5 c[i] over 3 × 256 MB.
-    {
-        use rayon::prelude::*;
-        let len = 64 << 20;
-        let b = vec![1.0f32; len];
-        let c = vec![2.0f32; len];
-        let mut a = vec![0.0f32; len];
-        let mut best = f64::INFINITY;
-        for _ in 0..5 {
-            let t = Instant::now();
-            a.par_chunks_mut(1 << 16)
-                .zip(b.par_chunks(1 << 16).zip(c.par_chunks(1 << 16)))
-                .for_each(|(a, (b, c))| {
-                    for i in 0..a.len() {
-                        a[i] = b[i] + 0.5 * c[i];
-                    }
-                });
-            best = best.min(t.elapsed().as_secs_f64());
-        }
-        // Bytes moved: read b, c; write a (plus the write-allocate read of a).
-        let bytes = 4.0 * len as f64 * 4.0;
-        println!(
-            "triad bandwidth {:.1} GB/s (check {})",
-            bytes / best / 1e9,
-            a[len / 2]
-        );
-        println!(
-            "deformer traffic per yarn vertex: 20 B in (triangle, du, dv, height, pattern vertex) + 16 B out (x, y, z, θ) + 16 B write-allocate = 52 B"
-        );
-    }
+    let roof = Roofline::measure(VertexCost::f32_kernel());
+    println!(
+        "roofline: triad {:.1} GB/s over {} B/vertex = {:.0} M vertices/s; arithmetic {:.0} M vertices/s",
+        roof.bandwidth / 1e9,
+        roof.cost.dram_bytes(),
+        roof.memory() / 1e6,
+        roof.arithmetic / 1e6
+    );
     for (name, opts, pos) in cases {
         d.set_options(opts).expect("options");
         d.frame(pos).expect("frame");
@@ -154,45 +117,5 @@ fn main() {
             n as f64 / cpu / 1e6
         );
     }
-    // GPU back end (any wgpu adapter, e.g. Mesa lavapipe), default options.
-    d.set_options(DeformOptions {
-        skip_static: false,
-        ..DeformOptions::default()
-    })
-    .expect("options");
-    match deform_runtime::gpu::GpuDeformer::new(&d) {
-        Ok(mut gpu) => {
-            gpu.frame(&mut d, &moved).expect("gpu frame");
-            let mut best = f64::INFINITY;
-            for _ in 0..frames {
-                let s = gpu.frame(&mut d, &moved).expect("gpu frame");
-                best = best.min(s.mesh_seconds + s.vertex_seconds);
-            }
-            println!(
-                "GPU ({}, {} chunk(s)) full frame incl. upload + read-back: {:.2} ms = {:.1} M vertices/s",
-                gpu.adapter(),
-                gpu.chunk_lengths().len(),
-                best * 1e3,
-                n as f64 / best / 1e6
-            );
-            // The same frame on the CPU: largest coordinate difference relative to the
-            // largest coordinate magnitude (the tests' measure).
-            d.frame(&moved).expect("frame");
-            let (a, b) = (d.output(), gpu.output());
-            let scale =
-                a.x.iter()
-                    .chain(&a.y)
-                    .chain(&a.z)
-                    .fold(0.0f32, |m, v| m.max(v.abs()));
-            let worst = [(&a.x, &b.x), (&a.y, &b.y), (&a.z, &b.z)]
-                .iter()
-                .flat_map(|(p, q)| p.iter().zip(q.iter()).map(|(p, q)| (p - q).abs()))
-                .fold(0.0f32, f32::max);
-            println!(
-                "GPU vs CPU: max relative difference {:.2e} over {n} vertices",
-                worst / scale
-            );
-        }
-        Err(e) => println!("GPU: {e}"),
-    }
+    println!("GPU back end: `cargo run --release -p deform-runtime --example gpu_bench`");
 }

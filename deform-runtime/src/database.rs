@@ -3,19 +3,22 @@
 //!
 //! [`RuntimeDatabase`] is built from a [`yarn_pattern::madypg::Database`] after checking it
 //! against the pattern (same vertex count, finite values). Storage is converted to the
-//! run-time scalar `T` and kept *texel-interleaved* like an RGBA 3-D texture: for each pattern
-//! vertex one contiguous block of `|SX|·|SA|·|SY|` texels `(Δx, Δy, Δz, Δθ)` in the MADYPG order
-//! `isx + |SX|(isa + |SA| isy)`. One trilinear lookup reads 8 texels of 16 (f32) bytes, two
-//! neighbouring texels per cache line pair, which is why the four components are not split
-//! into separate arrays (the per-yarn-vertex state is structure-of-arrays, see
-//! [`crate::embed::Embedding`]).
+//! run-time scalar `T` and laid out for the lookup, **sample-major and component-major**: for
+//! each strain sample, in the MADYPG order `r = isx + |SX|(isa + |SA| isy)`, and each
+//! component `c` of `(Δx, Δy, Δz, Δθ)`, the values of every pattern vertex in turn, at
+//! `(4r + c) · n_vertices + slot(vertex)` ([`RuntimeDatabase::index`]). The slots number the
+//! pattern vertices along the tile's yarns ([`RuntimeDatabase::slot`]), whatever order the
+//! file lists them in. (The MADYPG file is vertex-major: one block of samples per vertex.)
+//! Consecutive yarn vertices are then consecutive slots at nearly the same strain, so a batch
+//! of lookups that falls in one sample cell reads each corner's component as one contiguous
+//! vector ([`crate::lanes`]) instead of eight values `|SX|·|SA|·|SY|` samples apart.
 //!
 //! Lookups interpolate trilinearly on the (possibly non-uniform) sample axes and clamp
 //! strains outside the sampled range to the nearest sample (paper 004 §4.4: "constant
 //! extrapolation"), so they never extrapolate.
 
 use yarn_pattern::madypg::Database;
-use yarn_pattern::tile::Tile;
+use yarn_pattern::tile::{Tile, Topology};
 
 use crate::error::{DeformError, Result};
 use crate::real::Real;
@@ -71,8 +74,11 @@ pub struct RuntimeDatabase<T> {
     axes: [Vec<T>; 3],
     /// Number of pattern vertices.
     n_vertices: usize,
-    /// Texels `(Δx, Δy, Δz, Δθ)` (m, m, m, rad), vertex-major.
-    texels: Vec<[T; 4]>,
+    /// Storage slot of each pattern vertex: vertices numbered along the tile's yarns.
+    slots: Vec<u32>,
+    /// Displacements `(Δx, Δy, Δz, Δθ)` (m, m, m, rad), sample- and component-major (see the
+    /// module docs).
+    texels: Vec<T>,
     /// Index of the sample closest to zero strain on each axis.
     zero_sample: [usize; 3],
     /// For uniformly spaced axes: `(first sample, 1 / spacing)`, enabling O(1) location.
@@ -124,10 +130,17 @@ impl<T: Real> RuntimeDatabase<T> {
             });
         }
         let axes = [0, 1, 2].map(|k| db.axes[k].iter().map(|&a| T::from_f64(a)).collect());
-        let texels = db
-            .data
-            .iter()
-            .map(|r| r.map(|x| T::from_f64(f64::from(x))))
+        let n = db.n_vertices;
+        let slots = yarn_order(tile);
+        let mut vertex_of = vec![0; n];
+        for (v, &s) in slots.iter().enumerate() {
+            vertex_of[s as usize] = v;
+        }
+        let texels = (0..per_vertex * 4 * n)
+            .map(|k| {
+                let (sample, c, slot) = (k / (4 * n), (k / n) % 4, k % n);
+                T::from_f64(f64::from(db.data[vertex_of[slot] * per_vertex + sample][c]))
+            })
             .collect();
         let zero_sample = [0, 1, 2].map(|k| {
             let axis = &db.axes[k];
@@ -153,6 +166,7 @@ impl<T: Real> RuntimeDatabase<T> {
         Ok(Self {
             axes,
             n_vertices: db.n_vertices,
+            slots,
             texels,
             zero_sample,
             uniform,
@@ -175,14 +189,37 @@ impl<T: Real> RuntimeDatabase<T> {
         [0, 1, 2].map(|k| self.axes[k].len())
     }
 
-    /// The texels, vertex-major (see the module docs).
-    pub fn texels(&self) -> &[[T; 4]] {
+    /// The displacements, sample- and component-major (see the module docs): component `c`
+    /// of sample `r` of vertex `v` at [`Self::index`]`(r, c, v)`.
+    pub fn texels(&self) -> &[T] {
         &self.texels
+    }
+
+    /// Position in [`Self::texels`] of component `c` of sample `r` (MADYPG order) of the
+    /// pattern vertex in storage slot `slot`.
+    #[inline(always)]
+    pub fn index(&self, r: usize, c: usize, slot: usize) -> usize {
+        (4 * r + c) * self.n_vertices + slot
+    }
+
+    /// The storage slot of pattern vertex `v` (see the module docs).
+    #[inline(always)]
+    pub fn slot(&self, v: usize) -> usize {
+        self.slots[v] as usize
+    }
+
+    /// The displacements in pattern-vertex order: component `c` of sample `r` of vertex `v`
+    /// at `(4r + c) · n_vertices + v` (the GPU back end's layout).
+    pub fn texels_by_vertex(&self) -> Vec<T> {
+        let n = self.n_vertices;
+        (0..self.texels.len())
+            .map(|k| self.texels[k - k % n + self.slot(k % n)])
+            .collect()
     }
 
     /// Size of the texel storage in bytes.
     pub fn memory_bytes(&self) -> usize {
-        self.texels.len() * std::mem::size_of::<[T; 4]>()
+        self.texels.len() * std::mem::size_of::<T>()
     }
 
     /// For each axis, `(first sample, 1 / spacing)` if the samples are uniformly spaced.
@@ -193,6 +230,12 @@ impl<T: Real> RuntimeDatabase<T> {
     /// Index of the sample nearest to zero on each axis.
     pub fn zero_sample(&self) -> [usize; 3] {
         self.zero_sample
+    }
+
+    /// When all three axes are uniform with at least two samples each: their first samples
+    /// and inverse spacings (the O(1) location of [`locate_uniform`]).
+    pub fn uniform_grid(&self) -> Option<([T; 3], [T; 3])> {
+        self.all_uniform
     }
 
     /// Axis weights of the strain `(sx, sa, sy)`, clamped to the sampled range.
@@ -215,9 +258,8 @@ impl<T: Real> RuntimeDatabase<T> {
     /// `vertex` must be below [`Self::n_vertices`] (checked by the caller's embedding).
     #[inline(always)]
     pub fn interpolate(&self, vertex: usize, w: &[AxisWeight<T>; 3]) -> [T; 4] {
-        let [nx, na, ny] = self.shape();
-        let base = vertex * nx * na * ny;
-        let row = |ia: u32, iy: u32| base + nx * (ia as usize + na * iy as usize);
+        let [nx, na, _] = self.shape();
+        let row = |ia: u32, iy: u32| nx * (ia as usize + na * iy as usize);
         let mut out = [T::zero(); 4];
         let corners = [
             (w[1].lo, w[2].lo, (T::one() - w[1].t) * (T::one() - w[2].t)),
@@ -228,10 +270,12 @@ impl<T: Real> RuntimeDatabase<T> {
         let (tx0, tx1) = (T::one() - w[0].t, w[0].t);
         for (ia, iy, wy) in corners {
             let r = row(ia, iy);
-            let a = &self.texels[r + w[0].lo as usize];
-            let b = &self.texels[r + w[0].hi as usize];
+            let (ra, rb) = (r + w[0].lo as usize, r + w[0].hi as usize);
+            let slot = self.slot(vertex);
             for c in 0..4 {
-                out[c] += wy * (tx0 * a[c] + tx1 * b[c]);
+                let a = self.texels[self.index(ra, c, slot)];
+                let b = self.texels[self.index(rb, c, slot)];
+                out[c] += wy * (tx0 * a + tx1 * b);
             }
         }
         out
@@ -250,6 +294,33 @@ impl<T: Real> RuntimeDatabase<T> {
         (0..self.n_vertices)
             .map(|v| self.lookup(v, [T::zero(); 3]))
             .collect()
+    }
+}
+
+/// Storage slots of the pattern vertices: the vertices in the order of the tile's yarn loops
+/// ([`Topology::loops`], each edge's start vertex), or in file order if the tile has no valid
+/// topology.
+fn yarn_order(tile: &Tile) -> Vec<u32> {
+    let n = tile.positions.len();
+    let identity = || (0..n as u32).collect();
+    let Ok(topology) = Topology::new(tile) else {
+        return identity();
+    };
+    let mut slots = vec![u32::MAX; n];
+    let mut next = 0u32;
+    for lp in topology.loops() {
+        for e in lp {
+            let v = tile.edges[e].v0;
+            if slots[v] == u32::MAX {
+                slots[v] = next;
+                next += 1;
+            }
+        }
+    }
+    if next as usize == n {
+        slots
+    } else {
+        identity()
     }
 }
 

@@ -2,9 +2,10 @@
 //!
 //! [`Deformer::frame`] runs the mesh stage ([`crate::mesh::FrameGeometry::update`], which also
 //! expands every face into the polynomials of [`crate::mesh::FacePoly`]) and then, in
-//! parallel over yarn vertices (rayon, chunks of [`CHUNK`], batches of [`BATCH`] vertices per
-//! phase), the per-vertex kernel ([`vertex_strain`] → database lookup → [`vertex_map`];
-//! [`deform_vertex`] chains them for one vertex):
+//! parallel over yarn vertices (rayon, chunks of [`CHUNK`]), the per-vertex kernel
+//! ([`vertex_strain`] → database lookup → [`vertex_map`]; [`deform_vertex`] chains them for
+//! one vertex, and [`crate::lanes`] runs the same arithmetic on batches of eight vertices in
+//! SIMD lanes, bit for bit):
 //!
 //! 1. interpolate `I`, `II` from the triangle's corners (linear in the UV offset; or the face's
 //!    values when [`DeformOptions::interpolate_forms`] is off);
@@ -47,11 +48,6 @@ pub use crate::kernel::{
 
 /// Yarn vertices per rayon task.
 pub const CHUNK: usize = 8192;
-
-/// Yarn vertices per batch of the CPU loop: each phase runs over a batch before the next, so
-/// the long dependency chains of independent vertices (square roots, divisions, lookups)
-/// overlap in the out-of-order core.
-pub const BATCH: usize = 8;
 
 /// The CPU deformer: everything needed to deform one embedded pattern per frame.
 #[derive(Clone, Debug)]
@@ -283,45 +279,29 @@ impl<T: Real> Deformer<T> {
         }))
     }
 
+    /// The per-vertex stage: in `f32`, the SIMD kernel of [`crate::lanes`]; in `f64` (the
+    /// reference precision), [`deform_vertex`] vertex by vertex. Both give the same bits for
+    /// the same inputs in `f32`.
     fn vertex_stage(&mut self) -> VertexCounters {
+        if let Some(d) = (self as &mut dyn std::any::Any).downcast_mut::<Deformer<f32>>() {
+            return d.map_chunks(crate::lanes::run);
+        }
         self.map_chunks(|input, e, start, out, counters| {
-            let mut phase = [Displacement::Known([T::zero(); 4]); BATCH];
-            let mut dq = [[T::zero(); 4]; BATCH];
-            let n = out[0].len();
-            for b0 in (0..n).step_by(BATCH) {
-                let len = BATCH.min(n - b0);
-                for j in 0..len {
-                    let k = start + b0 + j;
-                    phase[j] = vertex_strain(
-                        input,
-                        e.triangle[k],
-                        e.du[k],
-                        e.dv[k],
-                        e.height[k],
-                        e.tile_vertex[k],
-                        counters,
-                    );
-                }
-                for j in 0..len {
-                    let k = start + b0 + j;
-                    dq[j] = match phase[j] {
-                        Displacement::Known(d) => d,
-                        Displacement::Lookup(s) => input.db.lookup(e.tile_vertex[k] as usize, s),
-                    };
-                }
-                for j in 0..len {
-                    let k = start + b0 + j;
-                    let mapped = vertex_map(
-                        input,
-                        e.triangle[k],
-                        e.du[k],
-                        e.dv[k],
-                        e.height[k],
-                        e.tile_vertex[k],
-                        dq[j],
-                    );
-                    store(out, b0 + j, mapped, counters);
-                }
+            for j in 0..out[0].len() {
+                let k = start + j;
+                let (f, du, dv, h, v) = (
+                    e.triangle[k],
+                    e.du[k],
+                    e.dv[k],
+                    e.height[k],
+                    e.tile_vertex[k],
+                );
+                store(
+                    out,
+                    j,
+                    deform_vertex(input, f, du, dv, h, v, counters),
+                    counters,
+                );
             }
         })
     }
@@ -365,7 +345,7 @@ impl<T: Real> Deformer<T> {
 /// Writes vertex `j`'s mapped position and twist into the chunk `out` (`[x, y, z, twist]`), or
 /// counts it as non-finite (leaving the previous output).
 #[inline(always)]
-fn store<T: Real>(
+pub(crate) fn store<T: Real>(
     out: &mut [&mut [T]; 4],
     j: usize,
     (x, t): ([T; 3], T),

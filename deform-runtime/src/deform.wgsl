@@ -20,7 +20,7 @@ const FACE_STRIDE: u32 = 52u;
 // (triangle, pattern vertex, bits of du, bits of dv)
 @group(0) @binding(1) var<storage, read> vin: array<vec4<u32>>;
 @group(0) @binding(2) var<storage, read> vheight: array<f32>;
-@group(0) @binding(3) var<storage, read> texels: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> texels: array<f32>;
 // [0, n_tile): zero-strain displacement; [n_tile, 2 n_tile): (rest twist, 0, 0, 0)
 @group(0) @binding(4) var<storage, read> tile_data: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read> faces: array<f32>;
@@ -87,13 +87,24 @@ fn clamp_eigenvalues(i: vec3<f32>, lo: f32) -> vec3<f32> {
     return vec3<f32>(lo, 0.0, lo);
 }
 
+// Sample- and component-major database (`RuntimeDatabase::index`): component c of sample r
+// of pattern vertex v at (4 r + c) n_tile + v.
+fn texel(r: u32, v: u32) -> vec4<f32> {
+    let base = 4u * r * P.n_tile + v;
+    return vec4<f32>(
+        texels[base],
+        texels[base + P.n_tile],
+        texels[base + 2u * P.n_tile],
+        texels[base + 3u * P.n_tile],
+    );
+}
+
 fn lookup(tv: u32, s: vec3<f32>) -> vec4<f32> {
     let wx = locate(0u, s.x);
     let wa = locate(1u, s.y);
     let wy = locate(2u, s.z);
     let nx = P.shape.x;
     let na = P.shape.y;
-    let base = tv * nx * na * P.shape.z;
     var acc = vec4<f32>(0.0);
     let ia = array<u32, 4>(wa.lo, wa.hi, wa.lo, wa.hi);
     let iy = array<u32, 4>(wy.lo, wy.lo, wy.hi, wy.hi);
@@ -104,9 +115,9 @@ fn lookup(tv: u32, s: vec3<f32>) -> vec4<f32> {
         wa.t * wy.t,
     );
     for (var c = 0u; c < 4u; c = c + 1u) {
-        let row = base + nx * (ia[c] + na * iy[c]);
-        let a = texels[row + wx.lo];
-        let b = texels[row + wx.hi];
+        let row = nx * (ia[c] + na * iy[c]);
+        let a = texel(row + wx.lo, tv);
+        let b = texel(row + wx.hi, tv);
         acc = acc + w[c] * ((1.0 - wx.t) * a + wx.t * b);
     }
     return acc;

@@ -281,7 +281,7 @@ fn check_shared_sizes(cpu: &Deformer<f32>, max_binding: u64) -> Result<(), GpuEr
             Ok(())
         }
     };
-    check("texels", (cpu.database().texels().len() * 16) as u64)?;
+    check("texels", (cpu.database().texels().len() * 4) as u64)?;
     check(
         "pattern tables",
         (2 * cpu.database().n_vertices() * 16) as u64,
@@ -307,7 +307,7 @@ impl SharedBuffers {
         bytes: &mut Vec<u8>,
     ) -> Self {
         let none = wgpu::BufferUsages::empty();
-        f32_bytes(cpu.database().texels().iter().flatten().copied(), bytes);
+        f32_bytes(cpu.database().texels_by_vertex(), bytes);
         let texels = upload(device, queue, "database", bytes, none);
         f32_bytes(
             cpu.rest_displacements()
@@ -713,4 +713,83 @@ mod tests {
             Err(GpuError::TooLarge { .. })
         ));
     }
+}
+
+/// Largest coordinate difference between two outputs relative to the largest coordinate
+/// magnitude of `a`, and largest twist difference (rad): the CPU/GPU agreement measure.
+pub fn agreement(a: &YarnOutput<f32>, b: &YarnOutput<f32>) -> (f64, f64) {
+    let scale =
+        a.x.iter()
+            .chain(&a.y)
+            .chain(&a.z)
+            .fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
+    let mut worst = 0.0f64;
+    let mut worst_twist = 0.0f64;
+    for k in 0..a.x.len() {
+        for (p, q) in [(a.x[k], b.x[k]), (a.y[k], b.y[k]), (a.z[k], b.z[k])] {
+            worst = worst.max(f64::from(p - q).abs() / scale);
+        }
+        worst_twist = worst_twist.max(f64::from(a.twist[k] - b.twist[k]).abs());
+    }
+    (worst, worst_twist)
+}
+
+/// What [`benchmark`] measured.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct GpuBenchmark {
+    /// Adapter description.
+    pub adapter: String,
+    /// Yarn vertices per frame.
+    pub vertices: usize,
+    /// GPU dispatches per frame (chunks).
+    pub chunks: usize,
+    /// Best GPU frame (s): CPU mesh stage, face upload, dispatches and read-back.
+    pub gpu_frame_seconds: f64,
+    /// Best GPU vertex stage (s): face upload, dispatches and read-back.
+    pub gpu_vertex_seconds: f64,
+    /// Best CPU frame (s) of the same frame.
+    pub cpu_frame_seconds: f64,
+    /// [`agreement`] of the CPU and GPU outputs: relative coordinate difference.
+    pub max_relative_difference: f64,
+    /// [`agreement`]: twist difference (rad).
+    pub max_twist_difference: f64,
+}
+
+/// Times the full frame of `scene` on the GPU and the CPU (best of `frames` after one warm-up
+/// frame each, static-frame skipping off) and compares their outputs.
+pub fn benchmark(
+    scene: &mut crate::synthetic::ThroughputScene<f32>,
+    frames: usize,
+) -> Result<GpuBenchmark, GpuError> {
+    let cpu = &mut scene.deformer;
+    cpu.set_options(crate::DeformOptions {
+        skip_static: false,
+        ..*cpu.options()
+    })?;
+    let mut gpu = GpuDeformer::new(cpu)?;
+    let frames = frames.max(1);
+    let best = |f: &mut dyn FnMut() -> Result<FrameStats, GpuError>| {
+        f()?;
+        let mut best = (f64::INFINITY, f64::INFINITY);
+        for _ in 0..frames {
+            let s = f()?;
+            best.0 = best.0.min(s.mesh_seconds + s.vertex_seconds);
+            best.1 = best.1.min(s.vertex_seconds);
+        }
+        Ok::<_, GpuError>(best)
+    };
+    let moved = &scene.moved;
+    let (gpu_frame, gpu_vertex) = best(&mut || gpu.frame(cpu, moved))?;
+    let (cpu_frame, _) = best(&mut || Ok(cpu.frame(moved)?))?;
+    let (relative, twist) = agreement(cpu.output(), gpu.output());
+    Ok(GpuBenchmark {
+        adapter: gpu.adapter().to_string(),
+        vertices: cpu.embedding().len(),
+        chunks: gpu.chunk_lengths().len(),
+        gpu_frame_seconds: gpu_frame,
+        gpu_vertex_seconds: gpu_vertex,
+        cpu_frame_seconds: cpu_frame,
+        max_relative_difference: relative,
+        max_twist_difference: twist,
+    })
 }

@@ -16,22 +16,28 @@
 //!   at the mesh boundary, short fragments dropped, barycentric embedding.
 //! - [`deform`]: [`Deformer`] — the per-frame CPU pipeline (rayon, structure-of-arrays,
 //!   `f32` or `f64`, no per-frame allocation) with switchable steps and skip-work.
+//! - [`kernel`]: the per-vertex kernel of one vertex (the reference), its options and counters.
+//! - [`lanes`]: the `f32` kernel in SIMD lanes, dispatched at run time to the machine's best
+//!   instruction set through `pulp`; bit-identical to [`kernel`].
+//! - [`roofline`]: the bytes and operations each vertex costs and the machine's bandwidth and
+//!   arithmetic rate, measured in the same run; what the throughput bench and figure compare
+//!   against.
 //! - [`bending`]: the explicit bending model of Appendix C (Eq. 19) — 4-D databases
 //!   `ΔQ_X1(s, κ)`, `ΔQ_X2(s, κ)`, curvature tensor and principal curvatures, five 4-D lookups;
 //!   run with [`Deformer::frame_explicit`] as the reference for linearized bending.
 //! - [`gpu`]: the GPU back end — the per-vertex stage as a WGSL compute shader through
 //!   wgpu, auto-selected when an adapter exists ([`gpu::Backend::auto`]) with a CPU fallback.
-//! - [`output`]: OBJ (`l`), PLY and `.bcc` writers.
-//! - [`render`]: a software renderer of the polylines as shaded tubes (orthographic camera,
-//!   exact ray–capsule hits, depth buffer, Lambert + ambient) and a minimal PNG encoder.
+//! - [`backend`]: the CPU or GPU back end of the per-vertex stage.
+//! - [`error`](mod@error): [`DeformError`].
 //! - [`pipeline`]: loading pattern + database + mesh from files into a [`Deformer`]; used
 //!   by the `deform-runtime` CLI.
 //! - [`real`]: the scalar trait (`f32`/`f64`): num-traits' `Float` plus two `as` casts.
 //! - [`synthetic`]: grid / cylinder meshes and databases with known ΔQ for tests, benches and
-//!   figures.
+//!   figures, and the throughput benchmark's scene.
 //!
 //! The `deform-runtime run` binary drives all of it from files (OBJ sequences in, OBJ / PLY /
-//! `.bcc` polylines, optional rendered PNGs and a JSON manifest out).
+//! `.bcc` / `.usda` polylines through `yarn-output`, optional rendered PNGs and a JSON manifest
+//! out).
 //!
 //! Figures built on this crate (`cargo xtask reproduce-figures`, modules
 //! `bench/src/figures/deform_*.rs`): `throughput` and `compression-clamping` (synthetic
@@ -40,7 +46,7 @@
 //! and `bending-models` (its bending-direction databases are solved by the figure itself with
 //! `sim_periodic`'s bent coarse maps, since `sim_periodic::database` generates in-plane
 //! databases only). `naive-vs-mechanics-aware` and `compression-clamping` also write rendered
-//! tube images ([`render`]).
+//! tube images (`yarn-output`'s renderer).
 //!
 //! Not implemented (see the crate's issue): director (d1) co-transformation (twists are
 //! updated, θ = Θ + Δθ); the explicit bending model runs on the CPU only.
@@ -71,10 +77,12 @@ pub mod error;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod kernel;
+pub mod lanes;
 pub mod mesh;
 pub mod obj;
 pub mod pipeline;
 pub mod real;
+pub mod roofline;
 pub mod synthetic;
 
 pub use database::RuntimeDatabase;

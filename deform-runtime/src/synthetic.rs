@@ -156,3 +156,36 @@ pub fn wave(uv: [f64; 2], amplitude: f64) -> [f64; 3] {
         amplitude * (3.0 * u).sin() * (2.0 * v).cos(),
     ]
 }
+
+/// The throughput benchmark's scene: a pattern on a 64 × 64-quad sheet covering
+/// `cells × cells` pattern periods (UV in metres), with the synthetic multilinear database on
+/// the published 9³ axes, its rest positions, and a frame of [`wave`] (amplitude 0.05 m).
+/// Used by the `throughput` bench, the `throughput` figure and the GPU benchmark, so that all
+/// three time the same work.
+#[derive(Clone, Debug)]
+pub struct ThroughputScene<T> {
+    /// The deformer (default options).
+    pub deformer: crate::deform::Deformer<T>,
+    /// Mesh positions of the rest frame (identity: every lookup skipped).
+    pub rest: Vec<[f64; 3]>,
+    /// Mesh positions of the deformed frame.
+    pub moved: Vec<[f64; 3]>,
+}
+
+/// Builds [`ThroughputScene`] for `tile` with `cells` periods per side.
+pub fn throughput_scene<T: crate::real::Real>(
+    tile: &Tile,
+    cells: f64,
+) -> crate::error::Result<ThroughputScene<T>> {
+    let db = database(tile, uniform_axes(9), multilinear(tile.radius));
+    let mesh = grid_mesh(64, 64, cells * tile.period[0], cells * tile.period[1]);
+    let options = crate::pipeline::SetupOptions {
+        uv_scale: 1.0,
+        ..Default::default()
+    };
+    Ok(ThroughputScene {
+        deformer: crate::pipeline::build::<T>(tile, &db, &mesh, &options)?,
+        rest: map_uvs(&mesh, |uv| [uv[0], uv[1], 0.0]),
+        moved: map_uvs(&mesh, |uv| wave(uv, 0.05)),
+    })
+}

@@ -34,21 +34,7 @@ fn gpu_chunked_or_skip(cpu: &Deformer<f32>, chunking: Chunking) -> Option<GpuDef
 /// Largest coordinate difference relative to the largest coordinate magnitude, and largest
 /// twist difference.
 fn compare(cpu: &Deformer<f32>, gpu: &GpuDeformer) -> (f64, f64) {
-    let (a, b) = (cpu.output(), gpu.output());
-    let scale =
-        a.x.iter()
-            .chain(&a.y)
-            .chain(&a.z)
-            .fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
-    let mut worst = 0.0f64;
-    let mut worst_twist = 0.0f64;
-    for k in 0..a.x.len() {
-        for (p, q) in [(a.x[k], b.x[k]), (a.y[k], b.y[k]), (a.z[k], b.z[k])] {
-            worst = worst.max(f64::from(p - q).abs() / scale);
-        }
-        worst_twist = worst_twist.max(f64::from(a.twist[k] - b.twist[k]).abs());
-    }
-    (worst, worst_twist)
+    deform_runtime::gpu::agreement(cpu.output(), gpu.output())
 }
 
 #[test]
@@ -172,4 +158,23 @@ fn chunked_dispatch_equals_unchunked_and_cpu() {
         GpuDeformer::with_chunking(&cpu, zero),
         Err(GpuError::Chunking(_))
     ));
+}
+
+#[test]
+fn the_gpu_benchmark_runs_and_agrees_with_the_cpu() {
+    // What `examples/gpu_bench.rs` runs on a real GPU, on a small scene.
+    let tile = stockinette();
+    let mut scene = synthetic::throughput_scene::<f32>(&tile, 16.0).expect("scene");
+    if gpu_or_skip(&scene.deformer).is_none() {
+        return;
+    }
+    let b = deform_runtime::gpu::benchmark(&mut scene, 2).expect("benchmark");
+    assert_eq!(b.vertices, scene.deformer.embedding().len());
+    assert!(b.vertices > 20_000, "{b:?}");
+    assert!(
+        b.gpu_frame_seconds > 0.0 && b.cpu_frame_seconds > 0.0,
+        "{b:?}"
+    );
+    assert!(b.max_relative_difference < 1e-5, "{b:?}");
+    assert!(b.max_twist_difference < 1e-5, "{b:?}");
 }
