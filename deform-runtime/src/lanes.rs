@@ -108,11 +108,11 @@ fn bits<S: Simd>(simd: S, mask: S::m32s) -> S::u32s {
     simd.select_u32s(mask, simd.splat_u32s(1), simd.splat_u32s(0))
 }
 
-/// Lanes where `mask` holds.
+/// Lanes where `mask` holds (a horizontal sum in registers).
 #[inline(always)]
 fn count<S: Simd>(simd: S, mask: S::m32s) -> usize {
-    let bits = bits(simd, mask);
-    lanes_u32::<S>(&bits).iter().sum::<u32>() as usize
+    let ones = simd.select_f32s(mask, simd.splat_f32s(1.0), simd.splat_f32s(0.0));
+    simd.reduce_sum_f32s(ones) as usize
 }
 
 /// Where each lane's face polynomial comes from.
@@ -283,6 +283,16 @@ fn vertex<S: Simd, F: Faces>(
     world_map(simd, input, faces, b, &dq)
 }
 
+/// The zero-strain displacement of each lane (for lanes that do not look up).
+#[inline(always)]
+fn rest<S: Simd>(simd: S, input: &KernelInputs<'_, f32>, b: &Batch<'_, S>) -> [S::f32s; 4] {
+    let mut rest = [simd.splat_f32s(0.0); 4];
+    for (c, r) in rest.iter_mut().enumerate() {
+        *r = gather(simd, |l| input.rest_dq[b.tile_vertices[l] as usize][c]);
+    }
+    rest
+}
+
 /// Phases 1–2 (steps 1–5 of [`crate::deform`]).
 #[inline(always)]
 fn displacement<S: Simd, F: Faces>(
@@ -301,12 +311,8 @@ fn displacement<S: Simd, F: Faces>(
         n_skip += usize::from(skip[l]);
     }
     counters.lookups_skipped += n_skip;
-    let mut rest = [simd.splat_f32s(0.0); 4];
-    for (c, r) in rest.iter_mut().enumerate() {
-        *r = gather(simd, |l| input.rest_dq[b.tile_vertices[l] as usize][c]);
-    }
     if n_skip == w {
-        return rest;
+        return rest(simd, input, b);
     }
     let (du, dv) = (b.du, b.dv);
     // Phase 1: I(h), clamped, and its strains (Eqs. 4, 7; §4.3).
@@ -346,7 +352,8 @@ fn displacement<S: Simd, F: Faces>(
     let d = simd.sqrt_f32s(add(simd, mul(simd, h, h), mul(simd, bb, bb)));
     let l2 = sub(simd, m, d);
     let keep = simd.greater_than_or_equal_f32s(l2, floor);
-    let (ca, cb, cc) = if count(simd, keep) == w {
+    let n_keep = count(simd, keep);
+    let (ca, cb, cc) = if n_keep == w {
         (a, bb, c)
     } else {
         let l1 = simd.max_f32s(add(simd, m, d), floor);
@@ -377,9 +384,10 @@ fn displacement<S: Simd, F: Faces>(
         finite(simd, s[2]),
     );
     // Lanes that look up: finite strains on faces that are not skipped.
+    let n_ok = count(simd, ok);
     let lookup = if n_skip == 0 {
-        counters.clamped += w - count(simd, keep);
-        counters.nonfinite_strain += w - count(simd, ok);
+        counters.clamped += w - n_keep;
+        counters.nonfinite_strain += w - n_ok;
         ok
     } else {
         let live = gather(simd, |l| if skip[l] { 0.0 } else { 1.0 });
@@ -395,7 +403,7 @@ fn displacement<S: Simd, F: Faces>(
         let s = [lanes::<S>(&s[0]), lanes::<S>(&s[1]), lanes::<S>(&s[2])];
         let lookup = bits(simd, lookup);
         let lookup = lanes_u32::<S>(&lookup);
-        let mut dq = rest;
+        let mut dq = rest(simd, input, b);
         for (c, dq) in dq.iter_mut().enumerate() {
             let r = *dq;
             let r = lanes::<S>(&r);
@@ -452,9 +460,16 @@ fn displacement<S: Simd, F: Faces>(
     }
     let v0 = slot[0];
     let consecutive = v0 + w <= nv && (0..w).all(|l| slot[l] == v0 + l);
-    let lo0 = [0, 1, 2].map(|q| lanes::<S>(&lo[q])[0]);
+    let lo0 = [
+        lanes::<S>(&lo[0])[0],
+        lanes::<S>(&lo[1])[0],
+        lanes::<S>(&lo[2])[0],
+    ];
+    let same_x = simd.equal_f32s(lo[0], simd.splat_f32s(lo0[0]));
+    let same_a = simd.equal_f32s(lo[1], simd.splat_f32s(lo0[1]));
+    let same_y = simd.equal_f32s(lo[2], simd.splat_f32s(lo0[2]));
     let one_cell =
-        (0..3).all(|q| count(simd, simd.equal_f32s(lo[q], simd.splat_f32s(lo0[q]))) == w);
+        consecutive && count(simd, simd.and_m32s(simd.and_m32s(same_x, same_a), same_y)) == w;
     if consecutive && one_cell {
         // Every lane in one sample cell, on consecutive pattern vertices: each corner's
         // component is one contiguous vector.
@@ -486,9 +501,12 @@ fn displacement<S: Simd, F: Faces>(
             }
         }
     }
-    let mut dq = rest;
+    if n_skip == 0 && n_ok == w {
+        return acc;
+    }
+    let mut dq = rest(simd, input, b);
     for c in 0..4 {
-        dq[c] = simd.select_f32s(lookup, acc[c], rest[c]);
+        dq[c] = simd.select_f32s(lookup, acc[c], dq[c]);
     }
     dq
 }
