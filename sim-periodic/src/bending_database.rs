@@ -132,8 +132,18 @@ pub fn bending_databases(
             };
             let flat_coarse = Coarse::from_strain(&s);
             let start = inplane_dofs(tile, inplane, index, &flat_coarse)?;
-            let eq0 = solve_equilibrium(tile, model, flat_coarse, Some(&start), &settings)
-                .with_context(|| format!("polishing the in-plane sample {s:?}"))?;
+            // Polished from the in-plane database's (f32) displacements; if Newton stalls from
+            // there, once more from the solver's own start.
+            let eq0 = match solve_equilibrium(tile, model, flat_coarse, Some(&start), &settings) {
+                Ok(eq) => eq,
+                Err(first) => solve_equilibrium(tile, model, flat_coarse, None, &settings)
+                    .with_context(|| {
+                        format!(
+                            "polishing the in-plane sample {s:?} (from the database's \
+                             displacements: {first}; then from the solver's start)"
+                        )
+                    })?,
+            };
             let zero_rows: Vec<[f32; 4]> = (0..tile.n_vertices())
                 .map(|v| inplane.data[inplane.index(v, index[0], index[1], index[2])])
                 .collect();
