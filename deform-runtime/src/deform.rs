@@ -263,19 +263,11 @@ impl<T: Real> Deformer<T> {
             });
         }
         Ok(self.map_chunks(|input, e, start, out, counters| {
-            for j in 0..out[0].len() {
-                let k = start + j;
-                let (f, du, dv, h, v) = (
-                    e.triangle[k],
-                    e.du[k],
-                    e.dv[k],
-                    e.height[k],
-                    e.tile_vertex[k],
-                );
+            each_vertex(e, start, 0, out, counters, |f, du, dv, h, v, counters| {
                 let dq =
                     crate::bending::explicit_displacement(input, bending, f, du, dv, v, counters);
-                store(out, j, vertex_map(input, f, du, dv, h, v, dq), counters);
-            }
+                vertex_map(input, f, du, dv, h, v, dq)
+            });
         }))
     }
 
@@ -287,22 +279,9 @@ impl<T: Real> Deformer<T> {
             return d.map_chunks(crate::lanes::run);
         }
         self.map_chunks(|input, e, start, out, counters| {
-            for j in 0..out[0].len() {
-                let k = start + j;
-                let (f, du, dv, h, v) = (
-                    e.triangle[k],
-                    e.du[k],
-                    e.dv[k],
-                    e.height[k],
-                    e.tile_vertex[k],
-                );
-                store(
-                    out,
-                    j,
-                    deform_vertex(input, f, du, dv, h, v, counters),
-                    counters,
-                );
-            }
+            each_vertex(e, start, 0, out, counters, |f, du, dv, h, v, counters| {
+                deform_vertex(input, f, du, dv, h, v, counters)
+            });
         })
     }
 
@@ -339,6 +318,26 @@ impl<T: Real> Deformer<T> {
                 counters
             })
             .reduce(VertexCounters::default, |a, b| a + b)
+    }
+}
+
+/// Runs `vertex(triangle, du, dv, height, pattern vertex, counters)` on the chunk-local
+/// vertices `from..` of the chunk `out` that starts at embedding vertex `start`, one by one,
+/// and stores each result with [`store`].
+#[inline(always)]
+pub(crate) fn each_vertex<T: Real>(
+    e: &Embedding<T>,
+    start: usize,
+    from: usize,
+    out: &mut [&mut [T]; 4],
+    counters: &mut VertexCounters,
+    vertex: impl Fn(u32, T, T, T, u32, &mut VertexCounters) -> ([T; 3], T),
+) {
+    for j in from..out[0].len() {
+        let k = start + j;
+        let (f, du, dv) = (e.triangle[k], e.du[k], e.dv[k]);
+        let mapped = vertex(f, du, dv, e.height[k], e.tile_vertex[k], counters);
+        store(out, j, mapped, counters);
     }
 }
 

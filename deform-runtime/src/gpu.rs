@@ -4,7 +4,7 @@
 //!
 //! [`GpuDeformer::new`] picks any adapter wgpu finds (a real GPU, or Mesa's lavapipe /
 //! llvmpipe CPU drivers) and fails with [`GpuError::NoAdapter`] otherwise, so callers can fall
-//! back to the CPU ([`Backend::auto`]). Yarn data, the database and the per-pattern-vertex
+//! back to the CPU ([`crate::backend::Backend::auto`]). Yarn data, the database and the per-pattern-vertex
 //! tables are uploaded once; per frame the face polynomials and parameters are written, the
 //! kernel dispatched, and the output read back. The read-back keeps a vertex's previous
 //! output if the GPU produced a non-finite value, as the CPU back end does.

@@ -278,7 +278,7 @@ pub fn vertex_map<T: Real>(
 }
 
 /// One yarn vertex through all phases (the reference form of the batched loop in
-/// [`Deformer::frame`]).
+/// [`crate::deform::Deformer::frame`]).
 pub fn deform_vertex<T: Real>(
     input: &KernelInputs<'_, T>,
     triangle: u32,

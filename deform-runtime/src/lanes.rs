@@ -12,9 +12,9 @@
 //!   non-finite store) are selects.
 //! - **Faces hoisted.** Yarn vertices are stored curve by curve and a curve stays in one
 //!   triangle for many consecutive vertices, so most batches lie in one face. Such a batch
-//!   broadcasts the face's polynomial coefficients once ([`OneFace`]) instead of reading one
+//!   broadcasts the face's polynomial coefficients once (`OneFace`) instead of reading one
 //!   192-byte record per vertex; a batch across a face boundary gathers them per lane
-//!   ([`LaneFaces`]). Both are the same code, instantiated twice. A batch on one identity face
+//!   (`LaneFaces`). Both are the same code, instantiated twice. A batch on one identity face
 //!   skips the strain and lookup phases entirely.
 //! - **Lookup.** The database texels are gathered per lane through
 //!   [`RuntimeDatabase::interpolate`] (eight 16-byte texels blended four components at a
@@ -31,7 +31,7 @@ use pulp::Simd;
 use pulp::bytemuck;
 
 use crate::database::RuntimeDatabase;
-use crate::deform::store;
+use crate::deform::each_vertex;
 use crate::embed::Embedding;
 use crate::kernel::{KernelInputs, VertexCounters, deform_vertex};
 use crate::mesh::FacePoly;
@@ -250,19 +250,14 @@ impl pulp::WithSimd for Chunk<'_, '_> {
                 }
             }
         }
-        for j in full..n {
-            let k = start + j;
-            let mapped = deform_vertex(
-                input,
-                e.triangle[k],
-                e.du[k],
-                e.dv[k],
-                e.height[k],
-                e.tile_vertex[k],
-                counters,
-            );
-            store(out, j, mapped, counters);
-        }
+        each_vertex(
+            e,
+            start,
+            full,
+            out,
+            counters,
+            |f, du, dv, h, v, counters| deform_vertex(input, f, du, dv, h, v, counters),
+        );
     }
 }
 

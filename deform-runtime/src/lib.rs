@@ -26,7 +26,7 @@
 //!   `ΔQ_X1(s, κ)`, `ΔQ_X2(s, κ)`, curvature tensor and principal curvatures, five 4-D lookups;
 //!   run with [`Deformer::frame_explicit`] as the reference for linearized bending.
 //! - [`gpu`]: the GPU back end — the per-vertex stage as a WGSL compute shader through
-//!   wgpu, auto-selected when an adapter exists ([`gpu::Backend::auto`]) with a CPU fallback.
+//!   wgpu, auto-selected when an adapter exists ([`backend::Backend::auto`]) with a CPU fallback.
 //! - [`backend`]: the CPU or GPU back end of the per-vertex stage.
 //! - [`error`](mod@error): [`DeformError`].
 //! - [`pipeline`]: loading pattern + database + mesh from files into a [`Deformer`]; used

@@ -245,9 +245,9 @@ const CHAINS: usize = 12;
 const WIDTH: usize = 8;
 
 /// Yarn vertices per second that the arithmetic `mix` allows: `batches` batches of
-/// [`CHAINS`] × [`WIDTH`] vertices (one lane each of [`CHAINS`] independent
-/// eight-lane `f32` vectors in registers), each batch executing `mix` once per vertex, on
-/// every rayon thread, best of `runs`.
+/// 12 × 8 vertices (one lane each of 12 independent eight-lane `f32` vectors in registers,
+/// enough to hide the latency of the multiply–add pairs), each batch executing `mix` once per
+/// vertex, on every rayon thread, best of `runs`.
 pub fn mix_rate(mix: OpMix, batches: usize, runs: usize) -> f64 {
     let threads = rayon::current_num_threads().max(1);
     let mut best = f64::INFINITY;
