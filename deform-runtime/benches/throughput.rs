@@ -40,16 +40,7 @@ fn bench(c: &mut Criterion) {
         rayon::current_num_threads()
     );
     let roof = Roofline::measure(VertexCost::f32_kernel());
-    eprintln!(
-        "roofline: triad {:.1} GB/s over {} B/vertex = {:.0} M vertices/s; arithmetic ({} ops/vertex) {:.0} M vertices/s; lower roof {:.0} M vertices/s ({}-bound)",
-        roof.bandwidth / 1e9,
-        roof.cost.dram_bytes(),
-        roof.memory() / 1e6,
-        roof.cost.ops().total(),
-        roof.arithmetic / 1e6,
-        roof.roof() / 1e6,
-        roof.bound()
-    );
+    eprintln!("roofline: {roof}");
     for s in roof.cost.stages() {
         eprintln!(
             "  stage {:8} {:3} B memory, {:3} B cache, {:3} mul {:3} add {} sqrt {} div per vertex",

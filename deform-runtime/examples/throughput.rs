@@ -84,13 +84,7 @@ fn main() {
         ),
     ];
     let roof = Roofline::measure(VertexCost::f32_kernel());
-    println!(
-        "roofline: triad {:.1} GB/s over {} B/vertex = {:.0} M vertices/s; arithmetic {:.0} M vertices/s",
-        roof.bandwidth / 1e9,
-        roof.cost.dram_bytes(),
-        roof.memory() / 1e6,
-        roof.arithmetic / 1e6
-    );
+    println!("roofline: {roof}");
     for (name, opts, pos) in cases {
         d.set_options(opts).expect("options");
         d.frame(pos).expect("frame");

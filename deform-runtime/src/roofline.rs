@@ -212,6 +212,25 @@ impl Roofline {
     }
 }
 
+impl std::fmt::Display for Roofline {
+    /// One line: both roofs with what they rest on, and the lower one.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "triad {:.1} GB/s over {} B/vertex = {:.0} M vertices/s; arithmetic ({} ops/vertex) \
+             {:.0} M vertices/s; lower roof {:.0} M vertices/s ({}-bound, {} threads)",
+            self.bandwidth / 1e9,
+            self.cost.dram_bytes(),
+            self.memory() / 1e6,
+            self.cost.ops().total(),
+            self.arithmetic / 1e6,
+            self.roof() / 1e6,
+            self.bound(),
+            self.threads
+        )
+    }
+}
+
 /// Triad bandwidth (bytes/s): `a[i] = b[i] + 0.5 c[i]` over three `f32` arrays of `len`
 /// elements on every rayon thread, counting 16 bytes per element (read `b` and `c`, write `a`
 /// and its write-allocate read), best of `runs`.

@@ -173,16 +173,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 crate::percent(last[5] / last[2]),
             ),
             ("static frame".into(), format!("{:.3} ms", last[6])),
-            (
-                "roofline".into(),
-                format!(
-                    "triad {:.1} GB/s / {} B = {:.0} M vertices/s; arithmetic {:.0} M vertices/s",
-                    roof.bandwidth / 1e9,
-                    roof.cost.dram_bytes(),
-                    roof.memory() / 1e6,
-                    roof.arithmetic / 1e6
-                ),
-            ),
+            ("roofline".into(), roof.to_string()),
             (
                 "full frame vs the lower roof".into(),
                 crate::percent(last[9]),
