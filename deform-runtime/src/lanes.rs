@@ -16,9 +16,12 @@
 //!   192-byte record per vertex; a batch across a face boundary gathers them per lane
 //!   (`LaneFaces`). Both are the same code, instantiated twice. A batch on one identity face
 //!   skips the strain and lookup phases entirely.
-//! - **Lookup.** The database texels are gathered per lane through
-//!   [`RuntimeDatabase::interpolate`] (eight 16-byte texels blended four components at a
-//!   time), after the strains were computed in lanes.
+//! - **Lookup.** On uniform axes (every generated database) the sample location, the corner
+//!   weights and the trilinear blend run in lanes, with the operations of
+//!   [`crate::database::locate_uniform`] and [`RuntimeDatabase::interpolate`]. The database is
+//!   stored for this ([`crate::database`]): when every lane of a batch lies in one sample cell
+//!   on consecutive storage slots, each corner's component is one vector load; otherwise it
+//!   is gathered lane by lane. Non-uniform axes use the reference lookup per lane.
 //! - **Instruction set.** [`run`] dispatches once per chunk, through `pulp`, to the best
 //!   instruction set of the machine (AVX2 + FMA on x86-64 when present, else the baseline),
 //!   since the default x86-64 target has only SSE2. No fused multiply-add is formed: products
