@@ -14,11 +14,8 @@
 #![allow(missing_docs)]
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use deform_runtime::roofline::{Roofline, VertexCost};
+use deform_runtime::roofline::{MADYPG_GPU_VERTICES_PER_SECOND, Roofline, VertexCost};
 use deform_runtime::{DeformOptions, synthetic};
-
-/// MADYPG's GPU runtime, paper 004 Table 1 (vertices per second).
-const MADYPG_GPU: f64 = 42.7e6 / 0.063;
 
 fn bench(c: &mut Criterion) {
     let tile = yarn_pattern::pyp::read_pyp(concat!(
@@ -93,7 +90,7 @@ fn bench(c: &mut Criterion) {
         100.0 * roof.fraction(frame),
         vertex / 1e6,
         100.0 * roof.fraction(vertex),
-        frame / MADYPG_GPU
+        frame / MADYPG_GPU_VERTICES_PER_SECOND
     );
 }
 

@@ -13,6 +13,7 @@
 //! lavapipe (CPU Vulkan), where the times say nothing about a GPU. Exits non-zero without an
 //! adapter.
 
+use deform_runtime::roofline::MADYPG_GPU_VERTICES_PER_SECOND;
 use deform_runtime::{gpu, synthetic};
 
 fn main() -> anyhow::Result<()> {
@@ -36,7 +37,7 @@ fn main() -> anyhow::Result<()> {
         "GPU frame (CPU mesh stage + upload + dispatch + read-back): {:.2} ms = {:.1} M vertices/s = {:.2}x MADYPG's 0.68 G vertices/s",
         b.gpu_frame_seconds * 1e3,
         rate(b.gpu_frame_seconds) / 1e6,
-        rate(b.gpu_frame_seconds) / (42.7e6 / 0.063)
+        rate(b.gpu_frame_seconds) / MADYPG_GPU_VERTICES_PER_SECOND
     );
     println!(
         "GPU vertex stage (upload + dispatch + read-back): {:.2} ms = {:.1} M vertices/s",

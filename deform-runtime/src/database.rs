@@ -268,10 +268,10 @@ impl<T: Real> RuntimeDatabase<T> {
             (w[1].hi, w[2].hi, w[1].t * w[2].t),
         ];
         let (tx0, tx1) = (T::one() - w[0].t, w[0].t);
+        let slot = self.slot(vertex);
         for (ia, iy, wy) in corners {
             let r = row(ia, iy);
             let (ra, rb) = (r + w[0].lo as usize, r + w[0].hi as usize);
-            let slot = self.slot(vertex);
             for c in 0..4 {
                 let a = self.texels[self.index(ra, c, slot)];
                 let b = self.texels[self.index(rb, c, slot)];

@@ -99,6 +99,19 @@ fn add_mul<S: Simd>(simd: S, a: S::f32s, b: S::f32s, c: S::f32s) -> S::f32s {
     simd.add_f32s(a, simd.mul_f32s(b, c))
 }
 
+/// One corner of the trilinear blend, in the reference's order:
+/// `acc + w · (t₀ · a + t₁ · b)` ([`RuntimeDatabase::interpolate`]).
+#[inline(always)]
+fn blend<S: Simd>(
+    simd: S,
+    acc: S::f32s,
+    w: S::f32s,
+    (t0, t1): (S::f32s, S::f32s),
+    (a, b): (S::f32s, S::f32s),
+) -> S::f32s {
+    add_mul(simd, acc, w, add(simd, mul(simd, t0, a), mul(simd, t1, b)))
+}
+
 /// Lanes whose value is finite.
 #[inline(always)]
 fn finite<S: Simd>(simd: S, v: S::f32s) -> S::m32s {
@@ -466,9 +479,9 @@ fn displacement<S: Simd, F: Faces>(
     let same_x = simd.equal_f32s(lo[0], simd.splat_f32s(lo0[0]));
     let same_a = simd.equal_f32s(lo[1], simd.splat_f32s(lo0[1]));
     let same_y = simd.equal_f32s(lo[2], simd.splat_f32s(lo0[2]));
-    let one_cell =
+    let contiguous =
         consecutive && count(simd, simd.and_m32s(simd.and_m32s(same_x, same_a), same_y)) == w;
-    if consecutive && one_cell {
+    if contiguous {
         // Every lane in one sample cell, on consecutive pattern vertices: each corner's
         // component is one contiguous vector.
         let rows = rows(lo0[0] as usize, lo0[1] as usize, lo0[2] as usize);
@@ -478,8 +491,7 @@ fn displacement<S: Simd, F: Faces>(
                 let ib = db.index(rows[k] + 1, c, v0);
                 let ta = S::as_simd_f32s(&texels[ia..ia + w]).0[0];
                 let tb = S::as_simd_f32s(&texels[ib..ib + w]).0[0];
-                let x = add(simd, mul(simd, tx0, ta), mul(simd, tx1, tb));
-                *acc = add_mul(simd, *acc, corner[k], x);
+                *acc = blend(simd, *acc, corner[k], (tx0, tx1), (ta, tb));
             }
         }
     } else {
@@ -494,8 +506,7 @@ fn displacement<S: Simd, F: Faces>(
             for (c, acc) in acc.iter_mut().enumerate() {
                 let ta = gather(simd, |l| texels[db.index(lane_rows[l][k], c, slot[l])]);
                 let tb = gather(simd, |l| texels[db.index(lane_rows[l][k] + 1, c, slot[l])]);
-                let x = add(simd, mul(simd, tx0, ta), mul(simd, tx1, tb));
-                *acc = add_mul(simd, *acc, corner[k], x);
+                *acc = blend(simd, *acc, corner[k], (tx0, tx1), (ta, tb));
             }
         }
     }

@@ -8,7 +8,7 @@
 use std::time::Instant;
 
 use deform_runtime::pipeline::read_pattern;
-use deform_runtime::roofline::{Roofline, VertexCost};
+use deform_runtime::roofline::{MADYPG_GPU_VERTICES_PER_SECOND, Roofline, VertexCost};
 use deform_runtime::{DeformOptions, synthetic};
 
 use crate::plot::{LineChart, Series};
@@ -180,7 +180,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             ),
             (
                 "vs MADYPG's GPU (0.68 G vertices/s)".into(),
-                format!("{:.2}×", last[7] * 1e6 / (42.7e6 / 0.063)),
+                format!("{:.2}×", last[7] * 1e6 / MADYPG_GPU_VERTICES_PER_SECOND),
             ),
         ],
         config: serde_json::json!({
