@@ -181,6 +181,7 @@ fn term_counts(sim: &Simulator) -> (String, usize) {
                 TermKind::CrossingShear => "shear",
                 TermKind::Obstacle => "obst",
                 TermKind::LoopContact => "loop",
+                TermKind::YarnContact => "yarn",
                 TermKind::SegmentFloor => "floor",
                 TermKind::Inertia => "inert",
                 TermKind::Damping => "damp",

@@ -15,6 +15,7 @@
 //! | [`state`] | generalized coordinates, DOF map, state-dependent segment mass matrix | seed 000 §3.2, physics notes |
 //! | [`forces`] | gravity, stretch, bending with jamming (Eq. 1), stitch wrapping (Eq. 2, Eqs. 7–13), stitch-contact length (Eq. 6), compression estimation at contact nodes (Eqs. 3–4, closed form and exact NNLS), sliding friction with anchored springs and the Coulomb bound μλ (Eq. 5; pair springs on Δu for parallel stacked yarns) with an optional return mapping, contact between adjacent loops (off by default), a floor on segments' material length (ours, on by default), weave crossing shear with jamming, sphere, plane and triangle-mesh obstacles (AABB tree, static or animated OBJ sequences), inertia and Rayleigh damping forms; the summed [`forces::Potential`] (a `solver::Terms` container with each term's kind) | seed 000 §4, ref. 6 |
 //! | [`measure`] | edge curl and side-to-side width of knit swatches | seed 000 §3.1, §5.2.2, Figs. 5, 7 |
+//! | [`fidelity`] | knit fidelity: gauge, turn per row and loop, kept size, roll radius, closest approach of unstitched yarns, wrapping-pair states, leg joints | seed 000 §4.1–§4.2, Figs. 5–7 |
 //! | [`rest_shape`] | rest-shape bending compensation: repeat detection, relaxed characteristic rectangle, loop shapes applied to the whole chart | seed 000 §4.1, Fig. 6 |
 //! | [`experiment`] | swatch experiments: settle, clamp sets (rows, sides, columns), rib stretch, load cycles, drops onto a sphere with sticking contacts, drape measures, yarn pull-out with contact breaking, garments knitted in the round dressed on body meshes | seed 000 §4.5, §5.2, §5.3 |
 //! | [`scene`] | TOML scene files (knit or woven pattern, Table 1 preset + overrides, damping, force terms, crossing shear, obstacles (spheres, planes, OBJ meshes and sequences; optionally sticking), clamps with drivers, outputs); the `sim-persistent run` binary | issue 6 |
@@ -65,6 +66,7 @@
 
 pub mod chart;
 pub mod experiment;
+pub mod fidelity;
 pub mod forces;
 pub mod integrator;
 pub mod layout;

@@ -68,7 +68,10 @@ pub enum MeasureError {
 }
 
 /// Width and height (stitches, rows) of a knit topology, checked against `positions`.
-fn knit_size(topology: &Topology, positions: &[V3]) -> Result<(usize, usize), MeasureError> {
+pub(crate) fn knit_size(
+    topology: &Topology,
+    positions: &[V3],
+) -> Result<(usize, usize), MeasureError> {
     let FabricKind::Knit(chart) = &topology.kind else {
         return Err(MeasureError::Invalid("not a knit".into()));
     };
@@ -98,7 +101,7 @@ fn knit_size(topology: &Topology, positions: &[V3]) -> Result<(usize, usize), Me
 }
 
 /// Centroid of the four contact nodes of column `c` on row boundary `b`.
-fn cell(positions: &[V3], w: usize, b: usize, c: usize) -> V3 {
+pub(crate) fn grid_cell(positions: &[V3], w: usize, b: usize, c: usize) -> V3 {
     let mut sum = V3::zeros();
     for side in [Side::Left, Side::Right] {
         for hi in [false, true] {
@@ -133,15 +136,16 @@ pub fn edge_curl(topology: &Topology, positions: &[V3]) -> Result<EdgeCurl, Meas
     // Course direction: columns along the middle boundary, turning about the wale axis
     // (front bending along +x turns the tangent about −ŷ).
     let bm = h / 2;
-    let course: Vec<V3> = (0..w).map(|c| cell(positions, w, bm, c)).collect();
-    let wale_axis = |c: usize| cell(positions, w, bm + 1, c) - cell(positions, w, bm - 1, c);
+    let course: Vec<V3> = (0..w).map(|c| grid_cell(positions, w, bm, c)).collect();
+    let wale_axis =
+        |c: usize| grid_cell(positions, w, bm + 1, c) - grid_cell(positions, w, bm - 1, c);
     let theta_x = tangent_angles(&course, |k| -wale_axis(k + 1));
     // Wale direction: boundaries through the two middle columns, turning about the course
     // axis (front bending along +y turns the tangent about +x̂).
     let (c0, c1) = ((w - 1) / 2, w / 2 + usize::from(w % 2 == 1));
-    let band = |b: usize| 0.5 * (cell(positions, w, b, c0) + cell(positions, w, b, c1));
+    let band = |b: usize| 0.5 * (grid_cell(positions, w, b, c0) + grid_cell(positions, w, b, c1));
     let wale: Vec<V3> = (0..=h).map(band).collect();
-    let course_axis = |b: usize| cell(positions, w, b, c1) - cell(positions, w, b, c0);
+    let course_axis = |b: usize| grid_cell(positions, w, b, c1) - grid_cell(positions, w, b, c0);
     let theta_y = tangent_angles(&wale, |k| course_axis(k + 1));
     let (cx, cy) = (centre(&theta_x), centre(&theta_y));
     Ok(EdgeCurl {
@@ -156,7 +160,7 @@ pub fn edge_curl(topology: &Topology, positions: &[V3]) -> Result<EdgeCurl, Meas
 pub fn course_width(topology: &Topology, positions: &[V3]) -> Result<f64, MeasureError> {
     let (w, h) = knit_size(topology, positions)?;
     let sum: f64 = (1..h)
-        .map(|b| (cell(positions, w, b, w - 1) - cell(positions, w, b, 0)).norm())
+        .map(|b| (grid_cell(positions, w, b, w - 1) - grid_cell(positions, w, b, 0)).norm())
         .sum();
     Ok(sum / (h - 1) as f64)
 }

@@ -36,6 +36,76 @@ impl Default for CompressionSettings {
     }
 }
 
+/// Default unwrapping bias of [`WrappingRest::Layout`] (rad).
+pub const DEFAULT_UNWRAP: f64 = 0.05;
+
+/// Where the rest angle ψ₀ of each stitch-wrapping pair (seed 000 Eq. 2) comes from.
+///
+/// Seed 000 lays its garments out from *stitch maps*, charts of a fabric relaxed to rest
+/// (§4.1), so its layouts start wrapped as a relaxed knit is, and sets ψ₀ = π/2 "for a
+/// visually realistic wrapping effect" (§4.2); the stitches then have "the natural tendency
+/// to unwrap" that curls stockinette edges. Our layouts are built from the chart alone and
+/// start unwrapped (ψ ≈ 0 at every pair: a flat layout cannot be wrapped uniformly, see
+/// [`crate::forces::wrapping`]); a fixed quarter turn is then out of reach of a flat sheet
+/// (it rolls a free stockinette into a rod). [`WrappingRest::Layout`] takes the layout,
+/// the geometry the fabric is knitted into, as the wrapping rest state, and adds the
+/// unwrapping tendency as a small bias: every pair's rest angle is its layout angle turned
+/// by `β` in the sense that unwraps it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum WrappingRest {
+    /// `ψ₀ = ψ_layout − σχ β`, with `ψ_layout` the pair's angle in the layout, `σχ` the
+    /// pair's wrapping sense ([`crate::forces::wrapping::rest_angle_sign`]: the sign of a
+    /// wrapped pair's ψ) and `β` = `unwrap` (rad, ≥ 0), the unwrapping tendency.
+    Layout {
+        /// The unwrapping bias β (rad). Default [`DEFAULT_UNWRAP`].
+        unwrap: f64,
+    },
+    /// The paper's reading: `ψ₀ = σχ ψ̄` for every pair, `ψ̄` = `angle` (rad, π/2 in the
+    /// paper), ramped in from the layout's angles
+    /// ([`crate::integrator::StepSettings::wrapping_ramp_time`]).
+    Fixed {
+        /// The rest angle's magnitude ψ̄ (rad, in `[0, π)`).
+        angle: f64,
+    },
+}
+
+impl Default for WrappingRest {
+    /// The paper's fixed quarter turn ([`WrappingRest::paper`]).
+    fn default() -> Self {
+        Self::paper()
+    }
+}
+
+impl WrappingRest {
+    /// The paper's fixed quarter turn (§4.2).
+    pub fn paper() -> Self {
+        Self::Fixed {
+            angle: std::f64::consts::FRAC_PI_2,
+        }
+    }
+
+    /// The rest angle of a pair of wrapping sense `sign` (±1) whose angle in the layout is
+    /// `layout_angle` (rad).
+    pub fn rest_angle(&self, sign: f64, layout_angle: f64) -> f64 {
+        match *self {
+            Self::Layout { unwrap } => layout_angle - sign * unwrap,
+            Self::Fixed { angle } => sign * angle,
+        }
+    }
+
+    /// Checks the angle is finite and in range.
+    pub fn validate(&self) -> Result<(), String> {
+        let (name, v) = match *self {
+            Self::Layout { unwrap } => ("unwrapping bias", unwrap),
+            Self::Fixed { angle } => ("wrapping rest angle", angle),
+        };
+        if !(v.is_finite() && (0.0..std::f64::consts::PI).contains(&v)) {
+            return Err(format!("the {name} must be in [0, π) rad, got {v}"));
+        }
+        Ok(())
+    }
+}
+
 /// Mechanical parameters of a yarn (SI units). Quantities the paper does not give are marked
 /// as such, with the reason for the default.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,11 +147,9 @@ pub struct YarnParams {
     /// labelled Pa; Eq. 2 (`V = ½ k_w L (ψ − ψ₀)²` with `L` in m) needs N for `V` in J, so
     /// the Table 1 number is read as N (no `π R²` factor: the paper gives none for `k_w`).
     pub wrapping_stiffness: f64,
-    /// Magnitude of the stitch-wrapping rest angle ψ₀ of Eq. 2 (rad). Default π/2, the
-    /// paper's choice "for a visually realistic wrapping effect" (§4.2). The sign per
-    /// contact (knit or purl, left or right leg) is set by
-    /// [`crate::forces::wrapping::rest_angle_sign`].
-    pub wrapping_rest_angle: f64,
+    /// Where the stitch-wrapping rest angles ψ₀ of Eq. 2 come from. Default: the paper's
+    /// fixed quarter turn ([`WrappingRest::paper`]).
+    pub wrapping_rest: WrappingRest,
     /// Stiffness `k_c` of the contact between adjacent loops
     /// ([`crate::forces::loop_contact`], `V = k_c/3 (2R − d)³`, N/m²). Not in the paper;
     /// default `0.1 k_s/R²`: a penetration of 5 % of the contact distance 2R (0.1 R) then
@@ -110,7 +178,7 @@ impl YarnParams {
             friction_max_force: None,
             compression: CompressionSettings::default(),
             wrapping_stiffness: 1e-2,
-            wrapping_rest_angle: std::f64::consts::FRAC_PI_2,
+            wrapping_rest: WrappingRest::default(),
             loop_contact_stiffness: 0.1 * young_modulus * area / (radius * radius),
             gravity: V3::new(0.0, -9.81, 0.0),
         }
@@ -207,12 +275,7 @@ impl YarnParams {
                 "stiffening needs k2 > 0 and onset ≥ 0, got k2 = {k2}, onset = {onset}"
             ));
         }
-        let psi0 = self.wrapping_rest_angle;
-        if !(psi0.is_finite() && (0.0..std::f64::consts::PI).contains(&psi0)) {
-            return Err(format!(
-                "wrapping_rest_angle must be in [0, π) rad, got {psi0}"
-            ));
-        }
+        self.wrapping_rest.validate()?;
         if !self.gravity.iter().all(|g| g.is_finite()) {
             return Err("gravity must be finite".into());
         }

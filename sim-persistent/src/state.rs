@@ -40,6 +40,11 @@ impl DofMap {
         Self { offsets, n_dofs: n }
     }
 
+    /// Number of nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.offsets.len()
+    }
+
     /// Total number of DoFs.
     pub fn n_dofs(&self) -> usize {
         self.n_dofs

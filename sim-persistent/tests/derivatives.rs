@@ -513,3 +513,46 @@ fn wrapping_energy_is_weighted_eq2() {
     let collapsed: [f64; 12] = [0., 0., 0., 0., 0., 1., 0., 0., -1., 0., 1., 1.];
     assert!(StitchWrap::weight(&collapsed).abs() < 1e-14);
 }
+
+/// Yarn self-contact ([`sim_persistent::forces::yarn_contact`]) on a 4 × 4 stockinette laid
+/// out with its rows squeezed to 1.2 d, so that the legs of neighbouring rows come within
+/// the contact distance: the pair search finds active pairs (positive energy), none of them
+/// between segments that share a node, and the assembled contact potential's gradient and
+/// Hessian match central differences on every DOF.
+#[test]
+fn assembled_yarn_contact_of_a_squeezed_swatch() {
+    use sim_persistent::forces::yarn_contact::Segments;
+    let chart = Chart::stockinette(4, 4).unwrap();
+    let topo = Topology::knit(&chart);
+    let params = YarnParams::sweater();
+    let d = 2.0 * params.radius;
+    let mut lp = LayoutParams::new(2.0 * d, params.radius);
+    lp.row_height = 1.2 * d;
+    lp.out_of_plane = 0.5 * d;
+    let layout = Layout::new(&topo, &lp).unwrap();
+    let dofs = DofMap::new(&topo);
+    let rest = State::from_layout(&topo, &dofs, &layout);
+    let forces = ForceSet {
+        yarn_contact: true,
+        ..ForceSet::default()
+    };
+    let segments = Segments::new(&topo);
+    let pot =
+        sim_persistent::forces::yarn_contact_terms(&segments, &dofs, &params, &forces, &rest.q);
+    assert!(!pot.is_empty(), "no contact pairs found");
+    for k in 0..pot.len() {
+        let nodes: Vec<usize> = pot.dofs(k).chunks(3).map(|c| c[0]).collect();
+        assert!(
+            !nodes[..2].iter().any(|n| nodes[2..].contains(n)),
+            "pair {k} shares a node"
+        );
+    }
+    let energy = pot.energy(&rest.q);
+    assert!(energy > 0.0, "no active pair: {energy}");
+    let (ge, he) = check_assembled(&pot, &rest.q);
+    eprintln!(
+        "yarn contact: {} pairs, energy {energy:.3e} J, gradient rel. error {ge:.2e}, Hessian \
+         rel. error {he:.2e}",
+        pot.len()
+    );
+}

@@ -397,6 +397,19 @@ impl Terms {
         self.terms.par_iter_mut().map(|t| &mut **t)
     }
 
+    /// Removes every term from index `len` on (nothing if there are not more).
+    pub fn truncate(&mut self, len: usize) {
+        if len >= self.terms.len() {
+            return;
+        }
+        self.terms.truncate(len);
+        self.ranges.truncate(len + 1);
+        self.dofs.truncate(self.ranges[len]);
+        if !self.offsets.is_empty() {
+            self.offsets.truncate(self.dofs.len());
+        }
+    }
+
     /// Moves every term of `other` (same number of global DOFs) to the end of `self`, in
     /// order.
     ///
@@ -567,6 +580,26 @@ mod tests {
             grad[0] = self.0;
             self.0 * q[0]
         }
+    }
+
+    /// Truncating keeps the first terms with their DOFs and drops the rest; appending after
+    /// it continues the DOF lists where they were cut.
+    #[test]
+    fn truncate_drops_the_tail() {
+        let mut t = Terms::new(3);
+        t.push(Linear(1.0), &[0]);
+        t.push(Linear(2.0), &[1]);
+        t.push(Linear(3.0), &[2]);
+        t.truncate(5);
+        assert_eq!(t.len(), 3);
+        t.truncate(1);
+        assert_eq!(t.len(), 1);
+        assert_eq!(t.dofs(0), &[0]);
+        t.push(Linear(4.0), &[2]);
+        assert_eq!(t.dofs(1), &[2]);
+        let x = [1.0, 10.0, 100.0];
+        let e: f64 = (0..t.len()).map(|k| t.stencil_energy(k, &x)).sum();
+        assert_eq!(e, 1.0 + 400.0);
     }
 
     fn segment() -> Segment {

@@ -15,6 +15,7 @@
 //! | compression estimation at stacked nodes (gives friction its bound μλ; not a potential) | [`compression`] | — | seed 000 Eqs. 3–4, §4.3 |
 //! | contact between adjacent loops (knits, off by default) | [`loop_contact`] | `(x_a, x_b)` per candidate node pair | seed 000 §4, ref. 6 |
 //! | floor on a segment's material length (ours) | [`segment_floor`] | `(u₀, u₁)` per segment | — |
+//! | yarn self-contact (ours; seed 002's barrier) | [`yarn_contact`] | `(x_a0, x_a1, x_b0, x_b1)` per close pair of segments not stitched together | seed 002 Eq. 7 |
 //! | stitch wrapping (knits only) | [`wrapping`] | `(x₀, x₁, x₄, x₃)` per pair of opposite segments | seed 000 Eq. 2, Eqs. 7–13 |
 //! | crossing shear with jamming (weaves only) | [`crossing_shear`] | `(x_a, x₀, x_b)` per crossing quadrant | ref. 6 (Cirio 2014) shear, seed 000 §4.1 jamming |
 //! | sphere / plane / mesh obstacle contact (only with obstacles) | [`obstacle`] | `x` per node and obstacle; `x_a, x_b` per segment and mesh obstacle | seed 000 §5.2.1 (penalty, C²) |
@@ -35,6 +36,7 @@ pub mod segment_floor;
 pub mod stitch_length;
 pub mod stretch;
 pub mod wrapping;
+pub mod yarn_contact;
 
 use crate::params::YarnParams;
 use crate::state::DofMap;
@@ -83,6 +85,10 @@ pub struct ForceSet {
     /// ([`crate::integrator::StepSettings::friction_return_mapping`]) drains segments
     /// within milliseconds without it.
     pub segment_floor: bool,
+    /// Yarn self-contact between segments that are not stitched together
+    /// ([`yarn_contact`], ours; parameters [`yarn_contact::YarnContact::for_yarn`]): without
+    /// it nothing keeps a curling or folding fabric from passing through itself. Default off.
+    pub yarn_contact: bool,
 }
 
 impl Default for ForceSet {
@@ -99,6 +105,7 @@ impl Default for ForceSet {
             crossing_shear_params: CrossingShearParams::default(),
             loop_contact: false,
             segment_floor: true,
+            yarn_contact: false,
         }
     }
 }
@@ -128,6 +135,8 @@ pub enum TermKind {
     LoopContact,
     /// Floor on a segment's material length (penalty).
     SegmentFloor,
+    /// Yarn self-contact between segments not stitched together (barrier).
+    YarnContact,
     /// Inertia (+ mass damping) of an implicit step.
     Inertia,
     /// Stiffness (Rayleigh β) damping of an implicit step.
@@ -196,6 +205,12 @@ impl Potential {
     {
         self.kinds.push(kind);
         self.terms.push_stencil(stencil, dofs)
+    }
+
+    /// Removes every term from index `len` on.
+    pub fn truncate(&mut self, len: usize) {
+        self.terms.truncate(len);
+        self.kinds.truncate(len);
     }
 
     /// Moves every term of `other` (same number of coordinates) to the end, in order (its
@@ -397,13 +412,37 @@ pub fn obstacle_terms(
     Ok(terms)
 }
 
+/// The yarn self-contact terms ([`yarn_contact`]) of the pairs of `segments` within the
+/// search distance at the coordinates `q`, for the yarn of `params`; empty unless
+/// `forces.yarn_contact`. The simulator refreshes them as the yarns move
+/// ([`crate::integrator::Simulator::step`]).
+pub fn yarn_contact_terms(
+    segments: &yarn_contact::Segments,
+    dofs: &DofMap,
+    params: &YarnParams,
+    forces: &ForceSet,
+    q: &[f64],
+) -> Potential {
+    let mut terms = Potential::new(dofs.n_dofs());
+    if forces.yarn_contact {
+        let contact =
+            yarn_contact::YarnContact::for_yarn(params.radius, params.bending_stiffness());
+        for (s, d) in contact.stencils(segments, dofs, q) {
+            terms.push(TermKind::YarnContact, s, d);
+        }
+    }
+    terms
+}
+
 /// The elastic and gravity terms of a fabric (everything but the per-step inertia and
 /// damping), selected by `forces`. Rest lengths of stitch contacts (Eqs. 2 and 6) and the
 /// initial friction anchors (Eq. 5; one per free sliding coordinate of a node with ≥ 2 yarns
 /// that has a non-parallel contact, one per parallel pair of stacked heads) are
 /// taken from the coordinates `q_rest` (normally the initial layout). Wrapping terms (knits
-/// only) get their full rest angle `± ψ₀` ([`wrapping::rest_angle_sign`]); the simulator
-/// ramps it in ([`crate::integrator::StepSettings::wrapping_ramp_time`]). Crossing-shear
+/// only) get their full rest angle ([`crate::params::WrappingRest`], from their angle at
+/// `q_rest` and their sense [`wrapping::rest_angle_sign`]); the simulator ramps it in
+/// ([`crate::integrator::StepSettings::wrapping_ramp_time`]). Yarn self-contact depends on
+/// the state and is not built here ([`yarn_contact_terms`]). Crossing-shear
 /// terms (weaves only) take their rest angles and lengths from `q_rest`. Obstacle terms are
 /// not built here ([`obstacle_terms`]).
 pub fn build_terms(
@@ -468,10 +507,12 @@ pub fn build_terms(
     if forces.wrapping && knit && params.wrapping_stiffness > 0.0 {
         let position = |n: usize| dofs.position(q_rest, n);
         for sc in &topology.stitch_contacts {
-            let rest_angle = wrapping::rest_angle_sign(sc) * params.wrapping_rest_angle;
+            let sign = wrapping::rest_angle_sign(sc);
             let rest_length = (position(sc.nodes[1]) - position(sc.nodes[0])).norm();
             for nodes in wrapping::wrap_pairs(topology, sc).into_iter().flatten() {
                 let d: [usize; 12] = std::array::from_fn(|k| dofs.x(nodes[k / 3]) + k % 3);
+                let x: [f64; 12] = std::array::from_fn(|k| q_rest[d[k]]);
+                let rest_angle = params.wrapping_rest.rest_angle(sign, StitchWrap::angle(&x));
                 let wrap = StitchWrap {
                     stiffness: params.wrapping_stiffness,
                     rest_length,

@@ -116,6 +116,22 @@ pub struct Simulator {
     q_rest: Vec<f64>,
     /// The obstacles added so far.
     obstacles: Vec<Obstacle>,
+    /// The Verlet list of yarn self-contact pairs (its terms end `elastic`).
+    contact: ContactList,
+}
+
+/// The yarn self-contact terms at the end of [`Simulator::elastic`] and where the nodes were
+/// when their pairs were searched ([`crate::forces::yarn_contact`]).
+#[derive(Clone, Debug)]
+struct ContactList {
+    /// The segments of the topology.
+    segments: crate::forces::yarn_contact::Segments,
+    /// Index of the first contact term in `elastic` (its length when there are none).
+    start: usize,
+    /// Node positions at the last search (empty: search at the next step).
+    searched_at: Vec<V3>,
+    /// The search margin (m): a search again once a node has moved half of it.
+    margin: f64,
 }
 
 /// Everything [`Simulator::assemble`] builds a simulator from.
@@ -197,6 +213,7 @@ impl Simulator {
             obstacles,
             time,
         } = parts;
+        let topology_for_contact = topology.clone();
         let mut elastic = build_terms(&topology, &dofs, &params, &forces, &q_rest);
         elastic.check_dofs().map_err(SimError::Invalid)?;
         let mut wrap_ramp = Vec::new();
@@ -266,13 +283,64 @@ impl Simulator {
             state,
             q_rest,
             obstacles: Vec::new(),
+            contact: ContactList {
+                segments: crate::forces::yarn_contact::Segments::new(&topology_for_contact),
+                start: 0,
+                searched_at: Vec::new(),
+                margin: crate::forces::yarn_contact::YarnContact::for_yarn(
+                    params.radius,
+                    params.bending_stiffness(),
+                )
+                .margin,
+            },
             solver: SolverCache::default(),
             time,
             damping_built: None,
             compression,
         };
+        sim.contact.start = sim.elastic.len();
         sim.add_obstacles(&obstacles)?;
+        sim.refresh_contact(true);
         Ok(sim)
+    }
+
+    /// Searches the yarn self-contact pairs again ([`crate::forces::yarn_contact`]) if
+    /// `force` or once a node has moved more than half the search margin since the last
+    /// search; replaces the contact terms (and the Newton solver's pattern) when the pairs
+    /// change. Nothing without [`ForceSet::yarn_contact`].
+    pub(super) fn refresh_contact(&mut self, force: bool) {
+        if !self.forces.yarn_contact {
+            return;
+        }
+        let q = &self.state.q;
+        let positions: Vec<V3> = (0..self.dofs.n_nodes())
+            .map(|n| self.dofs.position(q, n))
+            .collect();
+        let moved = self.contact.searched_at.len() != positions.len()
+            || positions
+                .iter()
+                .zip(&self.contact.searched_at)
+                .any(|(p, s)| (p - s).norm() > 0.5 * self.contact.margin);
+        if !(force || moved) {
+            return;
+        }
+        let terms = crate::forces::yarn_contact_terms(
+            &self.contact.segments,
+            &self.dofs,
+            &self.params,
+            &self.forces,
+            q,
+        );
+        let old: Vec<&[usize]> = (self.contact.start..self.elastic.len())
+            .map(|k| self.elastic.dofs(k))
+            .collect();
+        let same = old.len() == terms.len() && (0..terms.len()).all(|k| old[k] == terms.dofs(k));
+        self.elastic.truncate(self.contact.start);
+        self.elastic.append(terms);
+        if !same {
+            self.solver.0 = None; // new stencils, new pattern
+        }
+        self.contact.searched_at = positions;
     }
 
     /// Contact breaking (seed 000 §5.2.4) without a restart: the yarn passes `(yarn, pass
@@ -428,10 +496,13 @@ impl Simulator {
             crate::forces::obstacle_terms(&self.topology, &self.dofs, &self.params, obstacles)
                 .map_err(SimError::Invalid)?;
         self.obstacles.extend_from_slice(obstacles);
-        // Appended to the elastic terms: the indices of the elastic terms (wrapping ramp,
-        // damped terms) stay valid.
+        // Appended to the elastic terms before the self-contact terms: the indices of the
+        // elastic terms (wrapping ramp, damped terms) stay valid.
+        self.elastic.truncate(self.contact.start);
         self.elastic.append(terms);
+        self.contact.start = self.elastic.len();
         self.solver.0 = None; // new stencils, new pattern
+        self.refresh_contact(true);
         Ok(())
     }
 
@@ -507,6 +578,7 @@ impl Simulator {
     /// Needs pins that remove the rigid motions; time does not advance, and the wrapping rest
     /// angles are those of the ramp at the current time ([`StepSettings::wrapping_ramp_time`]).
     pub fn solve_static(&mut self) -> Result<NewtonReport, SimError> {
+        self.refresh_contact(false);
         self.apply_wrapping_ramp(self.time);
         // Always a full Newton solve (with line search, to convergence), even when the
         // steps are linearized; the linear solver is the steps' one.
@@ -641,6 +713,7 @@ impl Simulator {
             ));
         }
         self.state = state;
+        self.refresh_contact(true);
         Ok(())
     }
 

@@ -105,6 +105,7 @@ impl Simulator {
     /// One backward Euler step of length `h`; commits the state only on success.
     fn solve_step(&mut self, h: f64, report: &mut StepReport) -> Result<(), SimError> {
         let setup_start = std::time::Instant::now();
+        self.refresh_contact(false);
         self.move_obstacles(self.time + h);
         // Lagged Coulomb bound (Eq. 5): the compression of the state at the start of the step.
         let limits = self.slip_limits(&self.state.q)?;

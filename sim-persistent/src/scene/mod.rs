@@ -559,6 +559,7 @@ impl Scene {
             crossing_shear_params: self.crossing_shear.0,
             loop_contact: f.loop_contact,
             segment_floor: f.segment_floor,
+            yarn_contact: f.yarn_contact,
         }
     }
 

@@ -259,6 +259,8 @@ pub struct ForcesSpec {
     /// Floor on the material length of segments (default true,
     /// [`crate::forces::segment_floor`]).
     pub segment_floor: bool,
+    /// Yarn self-contact (default true, [`crate::forces::yarn_contact`]).
+    pub yarn_contact: bool,
 }
 
 impl Default for ForcesSpec {
@@ -274,6 +276,7 @@ impl Default for ForcesSpec {
             crossing_shear: f.crossing_shear,
             loop_contact: f.loop_contact,
             segment_floor: f.segment_floor,
+            yarn_contact: f.yarn_contact,
         }
     }
 }
