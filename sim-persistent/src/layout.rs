@@ -156,6 +156,54 @@ impl LayoutParams {
     }
 }
 
+/// The gauge of a relaxed knit in yarn diameters `d = 2R`: its course spacing (loop width),
+/// its row spacing and how much yarn one loop takes (its stitch length).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gauge {
+    /// Course spacing (loop width, d).
+    pub loop_width: f64,
+    /// Row spacing (d).
+    pub row_height: f64,
+    /// Yarn per loop (stitch length, d).
+    pub yarn_per_loop: f64,
+}
+
+impl Gauge {
+    /// A relaxed stockinette: the periodic tile of MADYPG's collection
+    /// (`tests/data/patterns/stockinette.pyp`, MIT), period and yarn length over its loop
+    /// count, in its own yarn diameter: loop width 3.76 d, row height 1.98 d, 13.2 d of yarn
+    /// per loop. Seed 000's Table 1 layouts (3 mm loops for a 1.5 mm yarn, `h = w`) hold
+    /// half that yarn.
+    pub const RELAXED_STOCKINETTE: Gauge = Gauge {
+        loop_width: 3.76,
+        row_height: 1.98,
+        yarn_per_loop: 13.2,
+    };
+
+    /// The gauge of knitters' units: `stitches` and `rows` per 10 cm, the stitch length
+    /// (yarn per loop) in mm, for a yarn of diameter `diameter` (m).
+    pub fn from_knitting(stitches: f64, rows: f64, stitch_length_mm: f64, diameter: f64) -> Self {
+        Self {
+            loop_width: 0.1 / stitches / diameter,
+            row_height: 0.1 / rows / diameter,
+            yarn_per_loop: 1e-3 * stitch_length_mm / diameter,
+        }
+    }
+}
+
+impl LayoutParams {
+    /// The layout of the knit `topology` at `gauge` for a yarn of radius `radius` (m): loop
+    /// width and row height from the gauge, the default contact length (`R`), and the
+    /// out-of-plane offset that gives the gauge's yarn per loop
+    /// ([`LayoutParams::with_loop_length`], whose errors it returns).
+    pub fn at_gauge(topology: &Topology, radius: f64, gauge: Gauge) -> Result<Self, LayoutError> {
+        let d = 2.0 * radius;
+        let mut params = Self::new(gauge.loop_width * d, radius);
+        params.row_height = gauge.row_height * d;
+        params.with_loop_length(topology, gauge.yarn_per_loop * d)
+    }
+}
+
 /// An invalid layout request.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum LayoutError {

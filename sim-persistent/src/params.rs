@@ -36,29 +36,37 @@ impl Default for CompressionSettings {
     }
 }
 
-/// Default unwrapping bias of [`WrappingRest::Layout`] (rad).
-pub const DEFAULT_UNWRAP: f64 = 0.05;
+/// Default wrapping bias of [`WrappingRest::Layout`] (rad).
+pub const DEFAULT_WRAP_BIAS: f64 = 0.1;
 
 /// Where the rest angle ψ₀ of each stitch-wrapping pair (seed 000 Eq. 2) comes from.
 ///
 /// Seed 000 lays its garments out from *stitch maps*, charts of a fabric relaxed to rest
-/// (§4.1), so its layouts start wrapped as a relaxed knit is, and sets ψ₀ = π/2 "for a
-/// visually realistic wrapping effect" (§4.2); the stitches then have "the natural tendency
-/// to unwrap" that curls stockinette edges. Our layouts are built from the chart alone and
-/// start unwrapped (ψ ≈ 0 at every pair: a flat layout cannot be wrapped uniformly, see
-/// [`crate::forces::wrapping`]); a fixed quarter turn is then out of reach of a flat sheet
-/// (it rolls a free stockinette into a rod). [`WrappingRest::Layout`] takes the layout,
-/// the geometry the fabric is knitted into, as the wrapping rest state, and adds the
-/// unwrapping tendency as a small bias: every pair's rest angle is its layout angle turned
-/// by `β` in the sense that unwraps it.
+/// (§4.1), and sets ψ₀ = π/2 "for a visually realistic wrapping effect" (§4.2); the
+/// imbalance between the layout's wrapping and ψ₀ is what curls stockinette edges ("the
+/// natural tendency to unwrap", §4.2, Figs. 5 and 7). Our layouts are built from the chart
+/// alone and start unwrapped (ψ ≈ 0 at every pair: a flat layout cannot be wrapped
+/// uniformly, see [`crate::forces::wrapping`]); a fixed quarter turn is then out of reach
+/// of a flat sheet, which rolls a free stockinette into a rod of a few yarn diameters.
+/// [`WrappingRest::Layout`] takes the layout, the geometry the fabric is knitted into, as
+/// the wrapping rest state, and keeps the imbalance that curls the edges as a small bias
+/// `β`: every pair's rest angle is its layout angle turned by `β` further in its wrapping
+/// sense.
+///
+/// **The sense of the bias.** The edge curl of the paper, stockinette side edges to the back
+/// and cast-on and bind-off to the front (as real stockinette curls), comes from a bias in
+/// the wrapping sense (`β > 0`, the sense of the paper's ψ₀ = ±π/2 from an unwrapped
+/// layout); the opposite sense rolls the edges the wrong way (sides to the front). Its size
+/// sets the tightness of the roll: small enough that the interior of a free swatch stays
+/// flat, large enough that the edges visibly curl (the `knit-fidelity` tests measure both).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum WrappingRest {
-    /// `ψ₀ = ψ_layout − σχ β`, with `ψ_layout` the pair's angle in the layout, `σχ` the
+    /// `ψ₀ = ψ_layout + σχ β`, with `ψ_layout` the pair's angle in the layout, `σχ` the
     /// pair's wrapping sense ([`crate::forces::wrapping::rest_angle_sign`]: the sign of a
-    /// wrapped pair's ψ) and `β` = `unwrap` (rad, ≥ 0), the unwrapping tendency.
+    /// wrapped pair's ψ) and `β` = `wrap` (rad, ≥ 0).
     Layout {
-        /// The unwrapping bias β (rad). Default [`DEFAULT_UNWRAP`].
-        unwrap: f64,
+        /// The wrapping bias β (rad). Default [`DEFAULT_WRAP_BIAS`].
+        wrap: f64,
     },
     /// The paper's reading: `ψ₀ = σχ ψ̄` for every pair, `ψ̄` = `angle` (rad, π/2 in the
     /// paper), ramped in from the layout's angles
@@ -88,7 +96,7 @@ impl WrappingRest {
     /// `layout_angle` (rad).
     pub fn rest_angle(&self, sign: f64, layout_angle: f64) -> f64 {
         match *self {
-            Self::Layout { unwrap } => layout_angle - sign * unwrap,
+            Self::Layout { wrap } => layout_angle + sign * wrap,
             Self::Fixed { angle } => sign * angle,
         }
     }
@@ -96,7 +104,7 @@ impl WrappingRest {
     /// Checks the angle is finite and in range.
     pub fn validate(&self) -> Result<(), String> {
         let (name, v) = match *self {
-            Self::Layout { unwrap } => ("unwrapping bias", unwrap),
+            Self::Layout { wrap } => ("wrapping bias", wrap),
             Self::Fixed { angle } => ("wrapping rest angle", angle),
         };
         if !(v.is_finite() && (0.0..std::f64::consts::PI).contains(&v)) {

@@ -9,6 +9,7 @@
 //! | [`clamps`] | clamp sets (cast-on, bind-off, left / right side, any column) of knits and weaves; side clamps pinned where the nodes are | seed 000 §4.5, §5.2.3 |
 //! | [`pull`] | the rib stretch: a settled 2 × 2 rib pulled between side clamps | seed 000 §5.2.3, Fig. 11 |
 //! | [`cycles`] | loading–unloading cycles between side clamps, residual deformation | seed 000 §4.5, Fig. 9 |
+//! | [`free_swatch`] | a free swatch from its layout at a gauge, measured for knit fidelity at the layout and at the end | seed 000 §4.1–§4.2 |
 //! | [`drape`] | drape measures: projected-area ratio, corner drop, penetration | seed 000 §5.2.1 |
 //! | [`sphere_drop`] | swatches dropped onto a sphere with sticking contacts until at rest | seed 000 §5.2.1, Fig. 12 |
 //! | [`pullout`] | yarn pull-out: one row's yarn pulled out of a garter with its edges pinned, contacts breaking as the free end slides through them | seed 000 §5.2.4, Fig. 13 |
@@ -18,6 +19,7 @@
 pub mod clamps;
 pub mod cycles;
 pub mod drape;
+pub mod free_swatch;
 pub mod garment;
 pub mod pull;
 pub mod pullout;
@@ -27,6 +29,7 @@ pub mod uniaxial;
 
 pub use clamps::{ClampSet, Grid, SideClamps};
 pub use cycles::{CycleSample, Cycles, CyclesRun};
+pub use free_swatch::{FreeSwatch, FreeSwatchRun, Measures};
 pub use pull::{RibStretch, RibStretchRun, SettledRib, StretchSample};
 pub use pullout::{PullOut, PullOutRun, PullOutSample};
 pub use swatch::{

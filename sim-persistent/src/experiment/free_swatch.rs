@@ -1,0 +1,117 @@
+//! A free swatch from its layout, measured as knits are measured ([`crate::fidelity`]): the
+//! experiment behind the knit-fidelity tests and the `knit_fidelity` example.
+//!
+//! The swatch: the Table 1 sweater yarn (R = 0.75 mm), no gravity, no pins, Table 1 mass
+//! damping α = 10 /s, dt = 1 ms, Newton to 1e-7 N, the simulator's default force terms with
+//! the wrapping rest state and yarn self-contact chosen by the experiment, laid out either
+//! at a [`Gauge`] or at Table 1's 3 mm loops. It is measured at its layout and after
+//! `time` seconds.
+
+use crate::chart::Chart;
+use crate::experiment::swatch::{ALPHA, LOOP_WIDTH, positions};
+use crate::fidelity::{Contacts, GridShape, contacts, grid_shape};
+use crate::forces::ForceSet;
+use crate::integrator::{Simulator, StepSettings};
+use crate::layout::{Gauge, Layout, LayoutParams};
+use crate::measure::{EdgeCurl, edge_curl};
+use crate::params::{WrappingRest, YarnParams};
+use crate::topology::Topology;
+use anyhow::Context;
+
+/// What is simulated.
+#[derive(Clone, Debug)]
+pub struct FreeSwatch {
+    /// The chart (knitted flat, one yarn per row).
+    pub chart: Chart,
+    /// `Some`: laid out at this gauge ([`LayoutParams::at_gauge`]); `None`: Table 1's 3 mm
+    /// loops with the default layout ([`LayoutParams::new`]).
+    pub gauge: Option<Gauge>,
+    /// The wrapping rest state.
+    pub wrapping: WrappingRest,
+    /// Yarn self-contact ([`crate::forces::yarn_contact`]).
+    pub yarn_contact: bool,
+    /// Simulated time (s).
+    pub time: f64,
+}
+
+/// The measures of one state of a free swatch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Measures {
+    /// Grid measures (rectangular K/P charts ≥ 6 × 6 only).
+    pub grid: Option<GridShape>,
+    /// Interpenetration and stitch measures.
+    pub contacts: Contacts,
+    /// Edge curl (rectangular K/P charts only, rad).
+    pub curl: Option<EdgeCurl>,
+}
+
+/// A simulated free swatch.
+#[derive(Clone, Debug)]
+pub struct FreeSwatchRun {
+    /// At the layout.
+    pub start: Measures,
+    /// After the simulated time.
+    pub end: Measures,
+    /// Yarn per loop of the layout (d).
+    pub yarn_per_loop: f64,
+    /// Peak and final kinetic energy (J).
+    pub peak_kinetic: f64,
+    /// Kinetic energy at the end (J).
+    pub final_kinetic: f64,
+    /// Yarn self-contact terms at the end.
+    pub contact_terms: usize,
+}
+
+impl FreeSwatch {
+    /// Simulates the swatch (module documentation). Errors name the failing step.
+    pub fn run(&self) -> anyhow::Result<FreeSwatchRun> {
+        let topo = Topology::knit(&self.chart);
+        let mut params = YarnParams::sweater();
+        params.gravity *= 0.0;
+        params.wrapping_rest = self.wrapping;
+        let d = 2.0 * params.radius;
+        let layout_params = match self.gauge {
+            Some(g) => LayoutParams::at_gauge(&topo, params.radius, g)?,
+            None => LayoutParams::new(LOOP_WIDTH, params.radius),
+        };
+        let layout = Layout::new(&topo, &layout_params)?;
+        let forces = ForceSet {
+            gravity: false,
+            yarn_contact: self.yarn_contact,
+            ..ForceSet::default()
+        };
+        let mut settings = StepSettings {
+            rayleigh_alpha: ALPHA,
+            ..StepSettings::default()
+        };
+        settings.newton.gradient_abs_tol = 1e-7;
+        let dt = settings.dt;
+        let mut sim = Simulator::new(topo.clone(), &layout, params, forces, settings)?;
+        let measure = |sim: &Simulator| -> anyhow::Result<Measures> {
+            let p = positions(sim);
+            Ok(Measures {
+                grid: grid_shape(&topo, &p, d).ok(),
+                contacts: contacts(&topo, &p, d)?,
+                curl: edge_curl(&topo, &p).ok(),
+            })
+        };
+        let start = measure(&sim)?;
+        let steps = ((self.time / dt).round() as usize).max(1);
+        let mut peak_kinetic: f64 = 0.0;
+        for k in 0..steps {
+            sim.step()
+                .with_context(|| format!("step {k} at t = {:.4} s", sim.time()))?;
+            peak_kinetic = peak_kinetic.max(sim.kinetic_energy());
+        }
+        Ok(FreeSwatchRun {
+            start,
+            end: measure(&sim)?,
+            yarn_per_loop: layout.yarn_per_loop(&topo)? / d,
+            peak_kinetic,
+            final_kinetic: sim.kinetic_energy(),
+            contact_terms: sim
+                .static_terms()
+                .count(crate::forces::TermKind::YarnContact),
+        })
+    }
+}
