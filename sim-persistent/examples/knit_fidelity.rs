@@ -7,50 +7,9 @@
 //! for the relaxed stockinette tile's, `table1` for 3 mm loops).
 
 use sim_persistent::chart::Chart;
-use sim_persistent::experiment::{FreeSwatch, Measures};
+use sim_persistent::experiment::FreeSwatch;
 use sim_persistent::layout::Gauge;
 use sim_persistent::params::WrappingRest;
-
-fn print(label: &str, m: &Measures) {
-    if let Some(g) = m.grid {
-        println!(
-            "{label}: course {:.2} [{:.2}, {:.2}] d, row {:.2} [{:.2}, {:.2}] d, turn/loop {:.1}° \
-             (p90 {:.1}, max {:.1}), turn/row {:.1}° (p90 {:.1}, max {:.1}), kept {:.2} × {:.2}, \
-             roll ≥ {:.2} d",
-            g.course.median,
-            g.course.p10,
-            g.course.p90,
-            g.row.median,
-            g.row.p10,
-            g.row.p90,
-            g.turn_per_loop.median,
-            g.turn_per_loop.p90,
-            g.turn_per_loop.max,
-            g.turn_per_row.median,
-            g.turn_per_row.p90,
-            g.turn_per_row.max,
-            g.kept_width,
-            g.kept_height,
-            g.min_roll_radius
-        );
-    }
-    let c = m.contacts;
-    println!(
-        "   closest unstitched {:.2} d, under 0.9 d {:.1} %, degenerate wings {:.1} %, leg joints \
-         median {:.0}° ({:.0} % < 80°)",
-        c.closest_unstitched,
-        100.0 * c.under_09,
-        100.0 * c.degenerate_wings,
-        c.leg_joint.median,
-        100.0 * c.leg_joints_below_80
-    );
-    if let Some(k) = m.curl {
-        println!(
-            "   curl sides {:+.2}/{:+.2}, ends {:+.2}/{:+.2} rad",
-            k.left, k.right, k.bottom, k.top
-        );
-    }
-}
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -89,8 +48,8 @@ fn main() -> anyhow::Result<()> {
     let start = std::time::Instant::now();
     let run = spec.run()?;
     println!("yarn per loop {:.2} d", run.yarn_per_loop);
-    print("layout", &run.start);
-    print(&format!("t = {time} s"), &run.end);
+    println!("layout:\n{}", run.start);
+    println!("t = {time} s:\n{}", run.end);
     println!(
         "kinetic energy end/peak {:.2e} (peak {:.2e} J); {} contact terms; {:.1} s wall",
         run.final_kinetic / run.peak_kinetic.max(1e-300),

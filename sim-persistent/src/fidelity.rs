@@ -97,8 +97,9 @@ pub struct Contacts {
     pub under_09: f64,
     /// Fraction of wrapping pairs with a wing within asin 0.2 of the contact axis.
     pub degenerate_wings: f64,
-    /// Turn of the yarn at the stitch-contact nodes (degrees).
-    pub leg_joint: Spread,
+    /// Turn of the yarn at the stitch-contact nodes (degrees; `None` without stitch
+    /// contacts).
+    pub leg_joint: Option<Spread>,
     /// Fraction of leg joints turning by less than 80°.
     pub leg_joints_below_80: f64,
 }
@@ -143,7 +144,10 @@ pub fn grid_shape(
             .map(|s| {
                 let (a, b) = (s[1] - s[0], s[2] - s[1]);
                 let turn = a.angle(&b);
-                0.5 * (a.norm() + b.norm()) / turn.max(1e-12) / diameter
+                match turn > 0.0 {
+                    true => 0.5 * (a.norm() + b.norm()) / turn / diameter,
+                    false => f64::INFINITY, // straight: no roll
+                }
             })
             .fold(f64::INFINITY, f64::min)
     };
@@ -220,12 +224,7 @@ pub fn contacts(
         closest_unstitched: closest,
         under_09,
         degenerate_wings: degenerate as f64 / pairs_total.max(1) as f64,
-        leg_joint: Spread::of(&joints).unwrap_or(Spread {
-            p10: 0.0,
-            median: 0.0,
-            p90: 0.0,
-            max: 0.0,
-        }),
+        leg_joint: Spread::of(&joints),
         leg_joints_below_80: below,
     })
 }

@@ -521,7 +521,7 @@ fn wrapping_energy_is_weighted_eq2() {
 /// Hessian match central differences on every DOF.
 #[test]
 fn assembled_yarn_contact_of_a_squeezed_swatch() {
-    use sim_persistent::forces::yarn_contact::Segments;
+    use sim_persistent::forces::yarn_contact::{Segments, YarnContact};
     let chart = Chart::stockinette(4, 4).unwrap();
     let topo = Topology::knit(&chart);
     let params = YarnParams::sweater();
@@ -532,13 +532,12 @@ fn assembled_yarn_contact_of_a_squeezed_swatch() {
     let layout = Layout::new(&topo, &lp).unwrap();
     let dofs = DofMap::new(&topo);
     let rest = State::from_layout(&topo, &dofs, &layout);
-    let forces = ForceSet {
-        yarn_contact: true,
-        ..ForceSet::default()
-    };
+    let contact = YarnContact::for_yarn(params.radius, params.bending_stiffness());
     let segments = Segments::new(&topo);
-    let pot =
-        sim_persistent::forces::yarn_contact_terms(&segments, &dofs, &params, &forces, &rest.q);
+    let positions: Vec<_> = (0..topo.nodes.len())
+        .map(|n| dofs.position(&rest.q, n))
+        .collect();
+    let pot = sim_persistent::forces::yarn_contact_terms(&contact, &segments, &dofs, &positions);
     assert!(!pot.is_empty(), "no contact pairs found");
     for k in 0..pot.len() {
         let nodes: Vec<usize> = pot.dofs(k).chunks(3).map(|c| c[0]).collect();

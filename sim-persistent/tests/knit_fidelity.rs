@@ -38,36 +38,10 @@ fn layout_rest() -> WrappingRest {
 }
 
 fn report(name: &str, r: &FreeSwatchRun) {
-    let g = r.end.grid.expect("a rectangular chart");
-    let g0 = r.start.grid.expect("a rectangular chart");
-    let c = r.end.contacts;
-    let k = r.end.curl.expect("a rectangular chart");
     eprintln!(
-        "{name}: course {:.2} d [{:.2}, {:.2}], row {:.2} d [{:.2}, {:.2}] (layout {:.2} × {:.2} d); \
-         turn/loop p90 {:.1}°, turn/row p90 {:.1}°; kept {:.2} × {:.2}; roll ≥ {:.1} d; closest \
-         unstitched {:.2} d, {:.1} % under 0.9 d; degenerate wings {:.1} %; leg joints {:.0} % \
-         < 80°; curl sides {:+.2}/{:+.2}, ends {:+.2}/{:+.2} rad; kinetic end/peak {:.1e}",
-        g.course.median,
-        g.course.p10,
-        g.course.p90,
-        g.row.median,
-        g.row.p10,
-        g.row.p90,
-        g0.course.median,
-        g0.row.median,
-        g.turn_per_loop.p90,
-        g.turn_per_row.p90,
-        g.kept_width,
-        g.kept_height,
-        g.min_roll_radius,
-        c.closest_unstitched,
-        100.0 * c.under_09,
-        100.0 * c.degenerate_wings,
-        100.0 * c.leg_joints_below_80,
-        k.left,
-        k.right,
-        k.bottom,
-        k.top,
+        "{name}: layout\n{}\nat the end\n{}\nkinetic energy end/peak {:.1e}",
+        r.start,
+        r.end,
         r.final_kinetic / r.peak_kinetic
     );
 }

@@ -45,6 +45,61 @@ pub struct Measures {
     pub curl: Option<EdgeCurl>,
 }
 
+/// One line per group of measures: gauge and shape, contacts and wrapping, edge curl
+/// (lengths in yarn diameters, turns in degrees, curls in rad).
+impl std::fmt::Display for Measures {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(g) = self.grid {
+            writeln!(
+                f,
+                "course {:.2} d [p10 {:.2}, p90 {:.2}], row {:.2} d [{:.2}, {:.2}]; turn per \
+                 loop {:.1}° (p90 {:.1}, max {:.1}), per row {:.1}° (p90 {:.1}, max {:.1}); \
+                 kept {:.2} × {:.2}; roll radius ≥ {:.1} d",
+                g.course.median,
+                g.course.p10,
+                g.course.p90,
+                g.row.median,
+                g.row.p10,
+                g.row.p90,
+                g.turn_per_loop.median,
+                g.turn_per_loop.p90,
+                g.turn_per_loop.max,
+                g.turn_per_row.median,
+                g.turn_per_row.p90,
+                g.turn_per_row.max,
+                g.kept_width,
+                g.kept_height,
+                g.min_roll_radius
+            )?;
+        }
+        let c = self.contacts;
+        write!(
+            f,
+            "closest unstitched {:.2} d, {:.1} % of segments under 0.9 d; degenerate wings \
+             {:.1} %",
+            c.closest_unstitched,
+            100.0 * c.under_09,
+            100.0 * c.degenerate_wings
+        )?;
+        if let Some(j) = c.leg_joint {
+            write!(
+                f,
+                "; leg joints median {:.0}°, {:.0} % below 80°",
+                j.median,
+                100.0 * c.leg_joints_below_80
+            )?;
+        }
+        if let Some(k) = self.curl {
+            write!(
+                f,
+                "\ncurl sides {:+.2}/{:+.2}, ends {:+.2}/{:+.2} rad",
+                k.left, k.right, k.bottom, k.top
+            )?;
+        }
+        Ok(())
+    }
+}
+
 /// A simulated free swatch.
 #[derive(Clone, Debug)]
 pub struct FreeSwatchRun {
@@ -54,7 +109,7 @@ pub struct FreeSwatchRun {
     pub end: Measures,
     /// Yarn per loop of the layout (d).
     pub yarn_per_loop: f64,
-    /// Peak and final kinetic energy (J).
+    /// Peak kinetic energy (J).
     pub peak_kinetic: f64,
     /// Kinetic energy at the end (J).
     pub final_kinetic: f64,

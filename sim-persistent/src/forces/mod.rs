@@ -412,24 +412,18 @@ pub fn obstacle_terms(
     Ok(terms)
 }
 
-/// The yarn self-contact terms ([`yarn_contact`]) of the pairs of `segments` within the
-/// search distance at the coordinates `q`, for the yarn of `params`; empty unless
-/// `forces.yarn_contact`. The simulator refreshes them as the yarns move
-/// ([`crate::integrator::Simulator::step`]).
+/// The yarn self-contact terms ([`yarn_contact`]) of `contact` between the pairs of
+/// `segments` within its search distance at the node `positions`. The simulator refreshes
+/// them as the yarns move ([`crate::integrator::Simulator::step`]).
 pub fn yarn_contact_terms(
+    contact: &yarn_contact::YarnContact,
     segments: &yarn_contact::Segments,
     dofs: &DofMap,
-    params: &YarnParams,
-    forces: &ForceSet,
-    q: &[f64],
+    positions: &[rod::geometry::V3],
 ) -> Potential {
     let mut terms = Potential::new(dofs.n_dofs());
-    if forces.yarn_contact {
-        let contact =
-            yarn_contact::YarnContact::for_yarn(params.radius, params.bending_stiffness());
-        for (s, d) in contact.stencils(segments, dofs, q) {
-            terms.push(TermKind::YarnContact, s, d);
-        }
+    for (s, d) in contact.stencils(segments, dofs, positions) {
+        terms.push(TermKind::YarnContact, s, d);
     }
     terms
 }

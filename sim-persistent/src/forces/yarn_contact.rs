@@ -100,6 +100,14 @@ impl Segments {
         arc
     }
 
+    /// Closest distance (m) between the centrelines of segments `a` and `b` at `positions`.
+    pub fn distance(&self, a: usize, b: usize, positions: &[V3]) -> f64 {
+        let (sa, sb) = (&self.segments[a], &self.segments[b]);
+        let [p0, p1] = sa.nodes.map(|n| positions[n]);
+        let [q0, q1] = sb.nodes.map(|n| positions[n]);
+        closest_points(&p0, &p1, &q0, &q1).2
+    }
+
     /// Whether segments `a` and `b` are excluded from contact (module documentation): they
     /// share a node or a stitch contact, or lie on one yarn less than `min_arc` apart along
     /// it (`arc` from [`Segments::arcs`]).
@@ -176,13 +184,7 @@ pub fn close_pairs(
             if b <= a || segments.excluded(a, b, &arc, min_arc) {
                 continue;
             }
-            let (sa, sb) = (&segments.segments[a], &segments.segments[b]);
-            let (_, _, d) = closest_points(
-                &positions[sa.nodes[0]],
-                &positions[sa.nodes[1]],
-                &positions[sb.nodes[0]],
-                &positions[sb.nodes[1]],
-            );
+            let d = segments.distance(a, b, positions);
             if d < distance {
                 pairs.push(ClosePair { a, b, distance: d });
             }
@@ -239,18 +241,17 @@ impl YarnContact {
         2.0 * self.phases[0].radius.max(self.phases[1].radius)
     }
 
-    /// The contact stencils of every pair of `segments` within `cutoff + margin` at the
-    /// coordinates `q`, with the position DOFs `(x_a0, x_a1, x_b0, x_b1)` of each.
+    /// The contact stencils of every pair of `segments` within `cutoff + margin` at the node
+    /// `positions`, with the position DOFs `(x_a0, x_a1, x_b0, x_b1)` of each.
     pub fn stencils(
         &self,
         segments: &Segments,
         dofs: &DofMap,
-        q: &[f64],
+        positions: &[V3],
     ) -> Vec<(EdgeContact, [usize; 12])> {
-        let positions: Vec<V3> = (0..dofs.n_nodes()).map(|n| dofs.position(q, n)).collect();
         let pairs = close_pairs(
             segments,
-            &positions,
+            positions,
             self.cutoff() + self.margin,
             self.min_arc_separation,
         );
@@ -330,14 +331,7 @@ mod tests {
                 if segments.excluded(a, b, &arc, min_arc) {
                     continue;
                 }
-                let (sa, sb) = (&segments.segments[a], &segments.segments[b]);
-                let (_, _, d) = closest_points(
-                    &positions[sa.nodes[0]],
-                    &positions[sa.nodes[1]],
-                    &positions[sb.nodes[0]],
-                    &positions[sb.nodes[1]],
-                );
-                if d < distance {
+                if segments.distance(a, b, &positions) < distance {
                     brute.push((a, b));
                 }
             }

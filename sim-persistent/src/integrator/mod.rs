@@ -73,6 +73,7 @@ use crate::forces::friction::{AnchoredSpring, ParallelSpring};
 use crate::forces::obstacle::Obstacle;
 use crate::forces::quadratic::{DampingSource, Quadratic};
 use crate::forces::wrapping::StitchWrap;
+use crate::forces::yarn_contact::{Segments, YarnContact};
 use crate::forces::{ForceSet, Potential, TermKind, build_terms};
 use crate::layout::Layout;
 use crate::params::YarnParams;
@@ -124,14 +125,15 @@ pub struct Simulator {
 /// when their pairs were searched ([`crate::forces::yarn_contact`]).
 #[derive(Clone, Debug)]
 struct ContactList {
+    /// The contact parameters (`None` without [`ForceSet::yarn_contact`]); a search again
+    /// once a node has moved half their margin.
+    contact: Option<YarnContact>,
     /// The segments of the topology.
-    segments: crate::forces::yarn_contact::Segments,
+    segments: Segments,
     /// Index of the first contact term in `elastic` (its length when there are none).
     start: usize,
-    /// Node positions at the last search (empty: search at the next step).
+    /// Node positions at the last search (empty: search at the next refresh).
     searched_at: Vec<V3>,
-    /// The search margin (m): a search again once a node has moved half of it.
-    margin: f64,
 }
 
 /// Everything [`Simulator::assemble`] builds a simulator from.
@@ -213,7 +215,14 @@ impl Simulator {
             obstacles,
             time,
         } = parts;
-        let topology_for_contact = topology.clone();
+        let contact = ContactList {
+            contact: forces
+                .yarn_contact
+                .then(|| YarnContact::for_yarn(params.radius, params.bending_stiffness())),
+            segments: Segments::new(&topology),
+            start: 0,
+            searched_at: Vec::new(),
+        };
         let mut elastic = build_terms(&topology, &dofs, &params, &forces, &q_rest);
         elastic.check_dofs().map_err(SimError::Invalid)?;
         let mut wrap_ramp = Vec::new();
@@ -283,16 +292,7 @@ impl Simulator {
             state,
             q_rest,
             obstacles: Vec::new(),
-            contact: ContactList {
-                segments: crate::forces::yarn_contact::Segments::new(&topology_for_contact),
-                start: 0,
-                searched_at: Vec::new(),
-                margin: crate::forces::yarn_contact::YarnContact::for_yarn(
-                    params.radius,
-                    params.bending_stiffness(),
-                )
-                .margin,
-            },
+            contact,
             solver: SolverCache::default(),
             time,
             damping_built: None,
@@ -309,9 +309,9 @@ impl Simulator {
     /// search; replaces the contact terms (and the Newton solver's pattern) when the pairs
     /// change. Nothing without [`ForceSet::yarn_contact`].
     pub(super) fn refresh_contact(&mut self, force: bool) {
-        if !self.forces.yarn_contact {
+        let Some(contact) = self.contact.contact else {
             return;
-        }
+        };
         let q = &self.state.q;
         let positions: Vec<V3> = (0..self.dofs.n_nodes())
             .map(|n| self.dofs.position(q, n))
@@ -320,16 +320,15 @@ impl Simulator {
             || positions
                 .iter()
                 .zip(&self.contact.searched_at)
-                .any(|(p, s)| (p - s).norm() > 0.5 * self.contact.margin);
+                .any(|(p, s)| (p - s).norm() > 0.5 * contact.margin);
         if !(force || moved) {
             return;
         }
         let terms = crate::forces::yarn_contact_terms(
+            &contact,
             &self.contact.segments,
             &self.dofs,
-            &self.params,
-            &self.forces,
-            q,
+            &positions,
         );
         let old: Vec<&[usize]> = (self.contact.start..self.elastic.len())
             .map(|k| self.elastic.dofs(k))
