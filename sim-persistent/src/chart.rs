@@ -541,6 +541,39 @@ impl Chart {
         })
     }
 
+    /// A lace repeat `across` times wide and `up` times high, with a knit row on top: yarn-overs
+    /// paired with decreases (K2TOG, SSK, S2KP, K3TOG), so every row keeps its 9 × `across`
+    /// loops. The repeat (seven rows with the closing knit row):
+    ///
+    /// ```text
+    /// K9
+    /// K K2TOG YO K YO SSK K2 K
+    /// K9
+    /// K2 YO S2KP YO K2 K2
+    /// K9
+    /// K YO K3TOG YO K YO K3TOG YO K
+    /// K9
+    /// ```
+    pub fn lace(across: usize, up: usize) -> Result<Self, ChartError> {
+        if across == 0 || up == 0 {
+            return Err(ChartError::InvalidSize(format!(
+                "lace {across} × {up} repeats: both counts must be ≥ 1"
+            )));
+        }
+        const ROWS: [&str; 6] = [
+            "K9",
+            "K K2TOG YO K YO SSK K2 K",
+            "K9",
+            "K2 YO S2KP YO K2 K2",
+            "K9",
+            "K YO K3TOG YO K YO K3TOG YO K",
+        ];
+        let row = |r: &str| format!("{}\n", vec![r; across].join(" "));
+        let mut text: String = (0..up).flat_map(|_| ROWS.map(row)).collect();
+        text.push_str(&row("K9"));
+        Self::parse(&text)
+    }
+
     /// Loops of the cast-on: the width of row 0 (for a rectangular K/P chart, the
     /// width of every row).
     pub fn width(&self) -> usize {

@@ -292,3 +292,16 @@ mod round_trip {
         }
     }
 }
+
+/// The lace builder: 6 rows per repeat and a closing knit row, every row keeping 9 loops per
+/// repeat across (yarn-overs balance the decreases), and zero repeats are an error.
+#[test]
+fn lace_repeats_keep_their_loop_count() {
+    let chart = Chart::lace(2, 3).unwrap();
+    assert_eq!(chart.height(), 19);
+    for r in 0..chart.height() {
+        assert_eq!(chart.loops_made(r), 18, "row {r}");
+    }
+    assert!(!chart.is_rectangular());
+    assert!(Chart::lace(0, 1).is_err() && Chart::lace(1, 0).is_err());
+}

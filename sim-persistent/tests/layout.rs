@@ -156,3 +156,57 @@ fn scene_keys_set_row_height_and_loop_length() {
     let e = weave.build().err().unwrap().to_string();
     assert!(e.contains("[yarn] row_height is for knits"), "{e}");
 }
+
+/// `[yarn] gauge` in knitters' units sets loop width, row height and yarn per loop as
+/// `Gauge::from_knitting` and `LayoutParams::at_gauge` do; it excludes the keys it sets, and
+/// bad values name the key.
+#[test]
+fn scene_gauge_in_knitters_units_sets_the_layout() {
+    let base = "dt = 1e-3\nsteps = 1\n[pattern]\nbuilder = \"stockinette\"\nwidth = 6\nheight = 6\n[yarn]\npreset = \"sweater\"\n";
+    let parse = |extra: &str| Scene::parse(&format!("{base}{extra}"), Path::new("gauge.toml"));
+    let topology = stockinette(6);
+    // 18 stitches and 34 rows per 10 cm, 14 mm of yarn per stitch, for the 1.5 mm yarn.
+    let gauge = "gauge = { stitches = 18, rows = 34, stitch_length_mm = 14.0 }\n";
+    let params = parse(gauge).unwrap().layout_params(&topology).unwrap();
+    assert!((params.loop_width - 0.1 / 18.0).abs() < 1e-15);
+    assert!((params.row_height - 0.1 / 34.0).abs() < 1e-15);
+    assert!((yarn_per_loop(&topology, &params) / 14e-3 - 1.0).abs() < 1e-9);
+    let expected = sim_persistent::layout::LayoutParams::at_gauge(
+        &topology,
+        0.75e-3,
+        sim_persistent::layout::Gauge::from_knitting(18.0, 34.0, 14.0, 1.5e-3),
+    )
+    .unwrap();
+    assert_eq!(params, expected);
+    // The simulator is built in that layout.
+    let run = parse(gauge).unwrap().build().unwrap();
+    let layout = Layout::new(&topology, &params).unwrap();
+    let dofs = run.sim.dofs();
+    for (n, p) in layout.positions.iter().enumerate() {
+        assert_eq!(dofs.position(&run.sim.state().q, n), *p);
+    }
+    let error = |extra: &str| match parse(extra) {
+        Ok(scene) => scene.build().err().unwrap().to_string(),
+        Err(e) => e.to_string(),
+    };
+    let e = error(&format!("{gauge}loop_width = 3e-3\n"));
+    assert!(
+        e.contains("[yarn] gauge") && e.contains("loop_width"),
+        "{e}"
+    );
+    let e = error("gauge = { stitches = 0, rows = 34, stitch_length_mm = 14.0 }\n");
+    assert!(e.contains("`stitches`"), "{e}");
+    let e = error("gauge = { stitches = 18, rows = 34 }\n");
+    assert!(e.contains("stitch_length_mm"), "{e}");
+    // A stitch length the layout cannot hold at that gauge.
+    let e = error("gauge = { stitches = 18, rows = 34, stitch_length_mm = 1.0 }\n");
+    assert!(e.contains("[yarn] gauge") && e.contains("reach"), "{e}");
+    let weave = "steps = 1\n[pattern]\nbuilder = \"plain\"\nwarps = 4\nwefts = 4\n[yarn]\n";
+    let e = Scene::parse(&format!("{weave}{gauge}"), Path::new("gauge.toml"))
+        .unwrap()
+        .build()
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("[yarn] gauge is for knits"), "{e}");
+}

@@ -20,6 +20,7 @@ pub mod periodic_tiles;
 pub mod periodic_time_vs_error;
 pub mod persistent_curl;
 pub mod persistent_garment;
+pub mod persistent_knit_fidelity;
 pub mod persistent_patterns_on_sphere;
 pub mod persistent_plasticity;
 pub mod persistent_pullout;

@@ -30,29 +30,6 @@ pub fn spec() -> FigureSpec {
     }
 }
 
-/// The lace repeat of `tests/stacked.rs` and `scenes/lace-hanging.toml`, `repeats` times
-/// across.
-fn lace(repeats: usize) -> String {
-    let rows = [
-        "K9",
-        "K K2TOG YO K YO SSK K2 K",
-        "K9",
-        "K2 YO S2KP YO K2 K2",
-        "K9",
-        "K YO K3TOG YO K YO K3TOG YO K",
-    ];
-    let mut text = String::new();
-    for _ in 0..2 {
-        for row in rows {
-            text.push_str(&vec![row; repeats].join(" "));
-            text.push('\n');
-        }
-    }
-    text.push_str(&vec!["K9"; repeats].join(" "));
-    text.push('\n');
-    text
-}
-
 /// A shaped chart: widens from 9 to 13 loops, then narrows to 7.
 const SHAPED: &str = "\
 K9
@@ -83,7 +60,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let fabrics: Vec<(&str, Chart, Construction)> = vec![
         (
             "lace (flat, continuous yarn)",
-            Chart::parse(&lace(if ctx.quick { 1 } else { 2 }))?,
+            Chart::lace(if ctx.quick { 1 } else { 2 }, 2)?,
             Construction::Flat,
         ),
         (

@@ -1,5 +1,5 @@
 //! A free swatch from its layout, measured as knits are measured ([`crate::fidelity`]): the
-//! experiment behind the knit-fidelity tests and the `knit_fidelity` example.
+//! experiment behind the `knit-fidelity` figure and tests and the `knit_fidelity` example.
 //!
 //! The swatch: the Table 1 sweater yarn (R = 0.75 mm), no gravity, no pins, Table 1 mass
 //! damping α = 10 /s, dt = 1 ms, Newton to 1e-7 N, the simulator's default force terms with
@@ -120,6 +120,11 @@ pub struct FreeSwatchRun {
 impl FreeSwatch {
     /// Simulates the swatch (module documentation). Errors name the failing step.
     pub fn run(&self) -> anyhow::Result<FreeSwatchRun> {
+        Ok(self.simulate()?.0)
+    }
+
+    /// [`FreeSwatch::run`], also returning the simulator at the end (to render or write it).
+    pub fn simulate(&self) -> anyhow::Result<(FreeSwatchRun, Simulator)> {
         let topo = Topology::knit(&self.chart);
         let mut params = YarnParams::sweater();
         params.gravity *= 0.0;
@@ -158,7 +163,7 @@ impl FreeSwatch {
                 .with_context(|| format!("step {k} at t = {:.4} s", sim.time()))?;
             peak_kinetic = peak_kinetic.max(sim.kinetic_energy());
         }
-        Ok(FreeSwatchRun {
+        let run = FreeSwatchRun {
             start,
             end: measure(&sim)?,
             yarn_per_loop: layout.yarn_per_loop(&topo)? / d,
@@ -167,6 +172,7 @@ impl FreeSwatch {
             contact_terms: sim
                 .static_terms()
                 .count(crate::forces::TermKind::YarnContact),
-        })
+        };
+        Ok((run, sim))
     }
 }

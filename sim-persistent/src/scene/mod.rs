@@ -35,7 +35,9 @@
 //! # overrides, all optional (SI units): radius, young_modulus, bending_modulus,
 //! # linear_density, wrapping_stiffness, friction_coefficient, friction_max_force, loop_width,
 //! # gravity = [x, y, z]; for a knit's layout also row_height (default: the loop width) and
-//! # loop_length (yarn per loop; the out-of-plane offset is solved for it, default R/4)
+//! # loop_length (yarn per loop; the out-of-plane offset is solved for it, default R/4),
+//! # or all three at once in knitters' units (per 10 cm and mm):
+//! # gauge = { stitches = 22, rows = 30, stitch_length_mm = 8.0 }
 //!
 //! [damping]            # Rayleigh α (1/s) and β (s); defaults: the preset's Table 1 values
 //! alpha = 10.0
@@ -120,8 +122,8 @@
 mod specs;
 
 pub use specs::{
-    ClampSpec, CrossingShearSpec, DampingSpec, Fabric, ForcesSpec, ObstacleSpec, PatternSpec,
-    SceneCrossingShear, YarnSpec,
+    ClampSpec, CrossingShearSpec, DampingSpec, Fabric, ForcesSpec, KnitGaugeSpec, ObstacleSpec,
+    PatternSpec, SceneCrossingShear, YarnSpec,
 };
 
 use crate::chart::{Chart, ChartError};
@@ -131,7 +133,7 @@ use crate::experiment::swatch::SwatchSettings;
 use crate::experiment::uniaxial::{Pull, UniaxialTest};
 use crate::forces::ForceSet;
 use crate::integrator::{SimError, Simulator, StepSettings};
-use crate::layout::{Layout, LayoutError, LayoutParams};
+use crate::layout::{Gauge, Layout, LayoutError, LayoutParams};
 use crate::output::{OutputError, OutputSpec};
 use crate::params::YarnParams;
 use crate::topology::Topology;
@@ -460,9 +462,12 @@ impl Scene {
             params.gravity = V3::from(g);
         }
         params.validate().map_err(SceneError::Invalid)?;
+        let gauge = self.knit_gauge(params.radius)?;
         Ok((
             params,
-            y.loop_width.unwrap_or(loop_width),
+            (y.loop_width)
+                .or(gauge.map(|g| g.loop_width * 2.0 * params.radius))
+                .unwrap_or(loop_width),
             self.damping.alpha.unwrap_or(alpha),
             self.damping.beta.unwrap_or(beta),
         ))
@@ -472,6 +477,15 @@ impl Scene {
     /// `loop_length`, the out-of-plane offset that gives the layout that yarn per loop.
     pub fn layout_params(&self, topology: &Topology) -> Result<LayoutParams, SceneError> {
         let (params, loop_width, ..) = self.yarn()?;
+        if let Some(gauge) = self.knit_gauge(params.radius)? {
+            if topology.knit.is_none() {
+                return Err(SceneError::Invalid(
+                    "[yarn] gauge is for knits: a weave's yarn spacing is loop_width".into(),
+                ));
+            }
+            return LayoutParams::at_gauge(topology, params.radius, gauge)
+                .map_err(|e| SceneError::Invalid(format!("[yarn] gauge: {e}")));
+        }
         let mut layout = LayoutParams::new(loop_width, params.radius);
         if let Some(h) = self.yarn.row_height {
             if topology.knit.is_none() {
@@ -488,6 +502,43 @@ impl Scene {
                 .map_err(|e| SceneError::Invalid(format!("[yarn] loop_length: {e}"))),
             None => Ok(layout),
         }
+    }
+
+    /// `[yarn] gauge` in yarn diameters of a yarn of radius `radius` (m), checked: positive
+    /// finite values, and none of the keys it sets given as well.
+    fn knit_gauge(&self, radius: f64) -> Result<Option<Gauge>, SceneError> {
+        let Some(g) = self.yarn.gauge else {
+            return Ok(None);
+        };
+        for (key, set) in [
+            ("loop_width", self.yarn.loop_width.is_some()),
+            ("row_height", self.yarn.row_height.is_some()),
+            ("loop_length", self.yarn.loop_length.is_some()),
+        ] {
+            if set {
+                return Err(SceneError::Invalid(format!(
+                    "[yarn] gauge sets the loop width, row height and loop length; remove \
+                     `{key}` or the gauge"
+                )));
+            }
+        }
+        for (key, v) in [
+            ("stitches", g.stitches),
+            ("rows", g.rows),
+            ("stitch_length_mm", g.stitch_length_mm),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(SceneError::Invalid(format!(
+                    "[yarn] gauge: `{key}` must be a finite number > 0, found {v}"
+                )));
+            }
+        }
+        Ok(Some(Gauge::from_knitting(
+            g.stitches,
+            g.rows,
+            g.stitch_length_mm,
+            2.0 * radius,
+        )))
     }
 
     /// The virtual swatch test of `[uniaxial]`, if the scene has one: the scene's fabric,

@@ -221,8 +221,25 @@ pub struct YarnSpec {
     /// offset is solved for it ([`crate::layout::LayoutParams::with_loop_length`]). Default:
     /// none, the offset is a quarter of the radius.
     pub loop_length: Option<f64>,
+    /// A knit's gauge in knitters' units (`gauge = { stitches = 22, rows = 30,
+    /// stitch_length_mm = 8.0 }`): it sets the loop width, row height and yarn per loop
+    /// together ([`crate::layout::LayoutParams::at_gauge`]), so it excludes `loop_width`,
+    /// `row_height` and `loop_length`.
+    pub gauge: Option<KnitGaugeSpec>,
     /// Gravity (m/s²).
     pub gravity: Option<[f64; 3]>,
+}
+
+/// `[yarn] gauge`: a knit's gauge as knitters measure it on a relaxed swatch.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct KnitGaugeSpec {
+    /// Stitches (loops of a row) per 10 cm of width.
+    pub stitches: f64,
+    /// Rows per 10 cm of height.
+    pub rows: f64,
+    /// Yarn per stitch (mm): the stitch length.
+    pub stitch_length_mm: f64,
 }
 
 /// `[damping]`: Rayleigh coefficients.
