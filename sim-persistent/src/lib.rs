@@ -26,43 +26,40 @@
 //! [`integrator::Simulator::new`] → [`integrator::Simulator::step`].
 //!
 //! Figures (`bench`): `rib-stretch` (Fig. 11, guarded reference curve), `curl` (Figs. 5, 7),
-//! `plasticity` (Fig. 9), `patterns-on-sphere` (Fig. 12), `stitches` (Figs. 3–4: lace,
-//! shaping, a tube in the round), `pullout` (Fig. 13) and `persistent-time-vs-error`.
+//! `knit-fidelity` (Figs. 5–7: do free swatches keep the shape of knitting?), `plasticity`
+//! (Fig. 9), `patterns-on-sphere` (Fig. 12), `stitches` (Figs. 3–4: lace, shaping, a tube in
+//! the round), `pullout` (Fig. 13) and `persistent-time-vs-error`. Their manifests hold the
+//! measured numbers quoted nowhere else.
 //!
 //! Contact breaking is implemented for a yarn's free end sliding through its stitch contacts
 //! ([`experiment::pullout`], [`integrator::Simulator::break_passes`]); contacts do not break
 //! elsewhere. The default construction is still one yarn per row
-//! ([`topology::Construction::FlatPerRow`]); the continuous yarn is opt-in. Known limits,
-//! measured: with the paper's explicit
-//! anchor update (the default) friction acts as a viscous brake of coefficient ≈ `k_f dt`,
-//! so forces depend on the time step; the friction return mapping
-//! ([`integrator::StepSettings::friction_return_mapping`], with [`forces::segment_floor`])
-//! removes that but is slower and opt-in ([`forces::friction`], `persistent-time-vs-error`,
-//! the `friction_dt` example); garter knitted with one yarn per row is flat only in its
-//! interior (below); the rest-shape compensation of [`rest_shape`] does not yet start
-//! layouts closer to rest than the flat layout (measured there).
+//! ([`topology::Construction::FlatPerRow`]); the continuous yarn is opt-in.
 //!
-//! **Curl of free swatches (measured, `tests/curl.rs`).** With the Table 1 sweater yarn the
-//! model reproduces the senses of stockinette curl — side edges roll to the back, cast-on and
-//! bind-off edges to the front — but a swatch rolls mainly along its longer direction (8 × 4:
-//! sides −4.2 rad, ends +0.5/+1.3; 4 × 8: ends +4.8/+5.1, sides ≈ 0; 4 × 4: sides −2.8, ends
-//! +1.5/+1.3), and the rolls are tight (radius of a few mm: wrapping, `k_w L ≈ 7.5e-6 J`
-//! per rad², dominates bending until jamming). Rib 2 × 2 compresses to 0.56 of its laid-out
-//! width. Garter is flat only in its interior: the side curl measured along each row
-//! boundary of an 8 × 9 garter is S-shaped (+0.40, +0.18, +0.12, +0.06, 0.00, −0.09, −0.19,
-//! −0.88, −1.67, +2.16 rad from cast-on to bind-off), so the side edges of 8 × 5 roll
-//! ≈ +1.2–1.3 rad in all, about a third of stockinette's. The interior row boundaries let
-//! 40–50 % of their wrapping pairs collapse a wing onto the contact axis (see
-//! [`forces::wrapping`], "Degenerate wings"), the ones next to the edges only 15–20 %, so
-//! the alternating wrapping moments do not cancel there. Contact between adjacent loops
-//! ([`forces::loop_contact`]) reduces garter's edge roll (+0.45/+0.86) but also
-//! stockinette's side curl (to −2.1/−0.7), so it is off by default. The roll comes from the
-//! row ends tied to the fabric: knitted with one continuous yarn that turns at the row ends
-//! ([`topology::Construction::Flat`], as garter is really knitted) the side edges of the
-//! 8 × 5 garter stay at −0.28/+0.27 rad and no row boundary of a 6 × 9 garter curls by more
-//! than 0.75 rad at its sides (tied rows: up to 2.75), measured; `tests/curl.rs` asserts
-//! below 0.5 and 1.0 rad. The `curl` figure uses the continuous yarn (20 × 21 garter: sides
-//! +0.08/−0.03 rad, ends +0.23/−0.28 rad).
+//! **Known limits** (measured in the figures and tests named):
+//! - With the paper's explicit anchor update (the default) friction acts as a viscous brake
+//!   of coefficient ≈ `k_f dt`, so forces depend on the time step; the friction return
+//!   mapping ([`integrator::StepSettings::friction_return_mapping`], with
+//!   [`forces::segment_floor`]) removes that but is slower and opt-in ([`forces::friction`],
+//!   `persistent-time-vs-error`, the `friction_dt` example).
+//! - **Curl** (`tests/curl.rs`, `curl`): the model reproduces the senses of stockinette curl
+//!   (side edges to the back, cast-on and bind-off edges to the front), but with the paper's
+//!   fixed quarter-turn wrapping rest angle the rolls are tight: wrapping dominates bending
+//!   until jamming, and a swatch rolls mainly along its longer direction. Rib compresses in
+//!   width. Garter knitted with one yarn per row is flat only in its interior: the row ends
+//!   tied to the fabric let more wrapping pairs near the edges keep both wings, so the
+//!   alternating wrapping moments do not cancel there; knitted with one continuous yarn
+//!   ([`topology::Construction::Flat`], as garter is knitted) its edges stay flat, and the
+//!   `curl` figure uses it. Contact between adjacent loops ([`forces::loop_contact`]) reduces
+//!   garter's edge roll but also stockinette's side curl, so it is off by default.
+//! - **Fidelity** (`knit-fidelity`, `tests/knit_fidelity.rs`): under the paper's model free
+//!   swatches roll through themselves; yarn self-contact with the layout wrapping rest state
+//!   ([`params::WrappingRest::Layout`]) keeps yarns apart and edges curling the right way,
+//!   both opt-in. Laid out at a relaxed tile's gauge, the layout's straight segments between
+//!   stitch contacts can hold the tile's yarn only with joints past the bending-jamming
+//!   onset; the fabric relaxes them by flattening, which lengthens its rows.
+//! - The rest-shape compensation of [`rest_shape`] does not yet start layouts closer to rest
+//!   than the flat layout (measured there).
 
 pub mod chart;
 pub mod experiment;

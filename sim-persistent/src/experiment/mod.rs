@@ -5,7 +5,7 @@
 //!
 //! | module | contents | source |
 //! |---|---|---|
-//! | [`swatch`] | swatch settings (Table 1 sweater yarn, loop width 3 mm, α = 10 /s), builder, free settling, stepping, positions and energies | seed 000 §5.2 |
+//! | [`swatch`](mod@swatch) | swatch settings (Table 1 sweater yarn, loop width 3 mm, α = 10 /s), builder, free settling, stepping, positions and energies | seed 000 §5.2 |
 //! | [`clamps`] | clamp sets (cast-on, bind-off, left / right side, any column) of knits and weaves; side clamps pinned where the nodes are | seed 000 §4.5, §5.2.3 |
 //! | [`pull`] | the rib stretch: a settled 2 × 2 rib pulled between side clamps | seed 000 §5.2.3, Fig. 11 |
 //! | [`cycles`] | loading–unloading cycles between side clamps, residual deformation | seed 000 §4.5, Fig. 9 |
