@@ -130,7 +130,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let time = if ctx.quick { 0.1 } else { 0.5 };
     let radius = YarnParams::sweater().radius;
     let swatches = swatches(ctx.quick)?;
-    // (model, wrapping, contact, gauge) of every run, paper model first.
+    // (model, chart index, swatch) of every run, the paper model first.
     let mut runs: Vec<(&'static str, usize, FreeSwatch)> = Vec::new();
     for (model, wrapping, contact) in [
         ("paper", WrappingRest::paper(), false),
@@ -195,6 +195,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let (mut paper_images, mut images) = (Vec::new(), Vec::new());
     for (i, (model, k, spec)) in runs.iter().enumerate() {
         let name = swatches[*k].0;
+        let tile_gauge = spec.gauge.is_some();
         let (result, sim) = spec
             .simulate()
             .map_err(|e| anyhow::anyhow!("{name} ({model}): {e:#}"))?;
@@ -216,7 +217,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             i as f64,
             *k as f64,
             f64::from(u8::from(spec.yarn_contact)),
-            f64::from(u8::from(spec.gauge.is_some())),
+            f64::from(u8::from(tile_gauge)),
             yarn_per_loop,
             grid(|g| g.course.median),
             grid(|g| g.course.p10),
@@ -240,32 +241,28 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             kinetic_ratio,
             contact_terms as f64,
         ]);
-        let label = format!(
-            "{name} {}×{}, {model}{}",
-            spec.chart.width(),
-            spec.chart.height(),
-            if spec.gauge.is_some() {
-                ", tile gauge"
-            } else {
-                ", 3 mm loops"
-            }
-        );
+        let layout = if tile_gauge {
+            "tile gauge"
+        } else {
+            "3 mm loops"
+        };
         summary.push((
-            label.clone(),
+            format!(
+                "{name} {}×{}, {model}, {layout}",
+                spec.chart.width(),
+                spec.chart.height()
+            ),
             format!(
                 "{yarn_per_loop:.1} d of yarn per loop; {}; kinetic end/peak {kinetic_ratio:.1e}",
                 end.to_string().replace('\n', "; ")
             ),
         ));
         let image = render(&sim, radius, (300, 300), [0.0, 0.0, -1.0], [0.0, 1.0, 0.0])?;
-        let caption = format!(
-            "{name}{}",
-            if spec.gauge.is_some() {
-                " (tile gauge)"
-            } else {
-                ""
-            }
-        );
+        let caption = if tile_gauge {
+            format!("{name} (tile gauge)")
+        } else {
+            name.to_string()
+        };
         if *model == "paper" {
             paper_images.push((caption, image.image));
         } else {
@@ -273,7 +270,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         }
         rows.push(Row {
             chart: name,
-            tile_gauge: spec.gauge.is_some(),
+            tile_gauge,
             end,
             kinetic_ratio,
         });
@@ -312,7 +309,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             "yarn": "Table 1 sweater (R = 0.75 mm), no gravity, no pins",
             "layouts": "3 mm loops (Table 1) for every chart; the stockinette also at the relaxed tile's gauge (3.76 d × 1.98 d, 13.2 d per loop)",
             "damping_alpha": sim_persistent::experiment::ALPHA,
-            "dt_s": 1e-3,
+            "dt_s": sim_persistent::integrator::StepSettings::default().dt,
             "time_s": time,
         }),
         data,

@@ -37,7 +37,7 @@
 //! # gravity = [x, y, z]; for a knit's layout also row_height (default: the loop width) and
 //! # loop_length (yarn per loop; the out-of-plane offset is solved for it, default R/4),
 //! # or all three at once in knitters' units (per 10 cm and mm):
-//! # gauge = { stitches = 22, rows = 30, stitch_length_mm = 8.0 }
+//! # gauge = { stitches = 18, rows = 34, stitch_length_mm = 14.0 }
 //!
 //! [damping]            # Rayleigh α (1/s) and β (s); defaults: the preset's Table 1 values
 //! alpha = 10.0

@@ -221,8 +221,8 @@ pub struct YarnSpec {
     /// offset is solved for it ([`crate::layout::LayoutParams::with_loop_length`]). Default:
     /// none, the offset is a quarter of the radius.
     pub loop_length: Option<f64>,
-    /// A knit's gauge in knitters' units (`gauge = { stitches = 22, rows = 30,
-    /// stitch_length_mm = 8.0 }`): it sets the loop width, row height and yarn per loop
+    /// A knit's gauge in knitters' units (`gauge = { stitches = 18, rows = 34,
+    /// stitch_length_mm = 14.0 }`): it sets the loop width, row height and yarn per loop
     /// together ([`crate::layout::LayoutParams::at_gauge`]), so it excludes `loop_width`,
     /// `row_height` and `loop_length`.
     pub gauge: Option<KnitGaugeSpec>,
