@@ -10,6 +10,18 @@
 //!   twist change (rad) of one tile vertex at one sample. Row index
 //!   `isx + |SX| · (isa + |SA| · (isy + |SY| · vertex))` ([`Database::index`]).
 //!
+//! **What ΔQ is relative to.** A table belongs to one tile, the `.pyp` computed with it (MADYPG
+//! ships it as `pyp` beside `axes.txt`; `sim-periodic database` writes `pattern.pyp`). That
+//! tile's positions and twists are the solver's equilibrium at zero strain, so the zero-strain
+//! row of every vertex is zero in position (its Δθ only to solver tolerance), and the tile's
+//! period is the period of every sample. `(Δx, Δy, Δz)` are material-space displacements in the
+//! tile's frame (x along `pₓ`, y along `p_y`, z out of plane): the equilibrium's fluctuation
+//! pulled back by `F₃⁻¹` (seed 004 Eq. 18, `F₂ = √I`), so the runtime adds them to the tile's
+//! positions before mapping. A sample's rigid translation is fixed by the solver's constraints,
+//! not by the mechanics; [`crate::agreement`] removes it before comparing tables.
+//! `yarn-pattern/tests/published_tables.rs` checks this on MADYPG's published stockinette
+//! tables.
+//!
 //! The writer produces `.npy` format version 1.0 with the header padded to a multiple of 64
 //! bytes; the reader accepts versions 1.0 and 2.0. Errors name the file and, for `axes.txt`,
 //! the 1-based line.
