@@ -22,7 +22,7 @@ use nalgebra::{DMatrix, DVector};
 use solver::Assembler;
 use std::time::Instant;
 use yarn_pattern::agreement::Agreement;
-use yarn_pattern::madypg::Database;
+use yarn_pattern::madypg::{Database, DatabaseError};
 use yarn_pattern::tile::Tile;
 
 use crate::coarse::Coarse;
@@ -54,14 +54,12 @@ pub fn compare_with_published(
     settings: &DatabaseSettings,
 ) -> Result<PublishedComparison, GenerationError> {
     let start = Instant::now();
-    if published.n_vertices != file_tile.n_vertices() {
-        return Err(GenerationError::Relax(
-            crate::patterns::PatternError::Invalid(format!(
-                "the published table has {} vertices, the tile {}",
-                published.n_vertices,
-                file_tile.n_vertices()
-            )),
-        ));
+    let expected = file_tile.n_vertices() * published.samples_per_vertex();
+    if published.data.len() != expected {
+        return Err(GenerationError::Database(DatabaseError::DataLength {
+            expected,
+            found: published.data.len(),
+        }));
     }
     let (relaxed, _) = relax_reference(file_tile, model, &settings.equilibrium)?;
     let settings = DatabaseSettings {
@@ -158,12 +156,11 @@ pub fn rest_state_forces(
             twist: free.rows(n_positions, free.len() - n_positions).norm(),
         }
     };
-    let gradient = |m: YarnModel| -> Result<TermForce, PeriodicError> {
-        let p = PeriodicTile::new(tile, m, coarse, pairs.clone())?;
-        let mut assembler = Assembler::new(&p).map_err(PeriodicError::from)?;
-        let (_, g) = assembler.gradient(&p, &x).map_err(PeriodicError::from)?;
-        Ok(project(g))
+    let force = |p: &PeriodicTile| -> Result<TermForce, PeriodicError> {
+        let mut assembler = Assembler::new(p)?;
+        Ok(project(assembler.gradient(p, &x)?.1))
     };
+    let gradient = |m: YarnModel| force(&PeriodicTile::new(tile, m, coarse, pairs.clone())?);
     let only = |keep: &dyn Fn(&mut YarnModel, &YarnModel)| {
         let mut m = *model;
         m.stretch = rod::stretch::StretchLaw::Linear { k: 0.0 };
@@ -180,6 +177,6 @@ pub fn rest_state_forces(
         bending: gradient(only(&|m, o| m.bending = o.bending))?,
         twist: gradient(only(&|m, o| m.twist = o.twist))?,
         contact: gradient(only(&|m, o| m.contact = o.contact))?,
-        total: gradient(*model)?,
+        total: force(&full)?,
     })
 }

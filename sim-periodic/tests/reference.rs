@@ -11,10 +11,15 @@ const PUBLISHED: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../tests/data/madypg/model_stock_5"
 );
+/// The table's tile (MADYPG's `pyp`, byte-identical).
+const TILE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../tests/data/patterns/stockinette.pyp"
+);
 
 #[test]
 fn term_forces_cancel_at_our_equilibrium_but_not_on_the_file_geometry() {
-    let tile = read_pyp(format!("{PUBLISHED}/pyp")).unwrap().tile;
+    let tile = read_pyp(TILE).unwrap().tile;
     let model = YarnModel::default_for_radius(tile.radius);
     let file = rest_state_forces(&tile, &model, 1.5).unwrap();
     let largest = [file.stretch, file.bending, file.twist, file.contact]
@@ -35,7 +40,7 @@ fn term_forces_cancel_at_our_equilibrium_but_not_on_the_file_geometry() {
 
 #[test]
 fn our_table_on_published_axes_is_relative_to_the_file_geometry() {
-    let tile = read_pyp(format!("{PUBLISHED}/pyp")).unwrap().tile;
+    let tile = read_pyp(TILE).unwrap().tile;
     let full = Database::read(PUBLISHED).unwrap();
     // The zero-strain sample and one weft stretch of the published 5³ table.
     let (isx, isa, isy) = ([1usize, 2], 2usize, 1usize);
@@ -54,15 +59,17 @@ fn our_table_on_published_axes_is_relative_to_the_file_geometry() {
     let c =
         compare_with_published(&tile, &published, &model, &DatabaseSettings::default()).unwrap();
     assert_eq!(c.unsolved, 0);
-    // At zero strain our table is our relaxation's shift from the file geometry.
+    // At zero strain our table is our relaxation's shift from the file geometry (the shift
+    // has no mean: the relaxation keeps the mean fluctuation at zero).
     let zero = &c.agreement.samples[0];
-    assert!(c.relaxation_shift > 0.0);
+    assert!(c.relaxation_shift > 0.01 * tile.radius);
     assert!(
-        (zero.rms_ours - c.relaxation_shift).abs() < 0.5 * c.relaxation_shift,
+        (zero.rms_ours - c.relaxation_shift).abs() < 1e-3 * c.relaxation_shift,
         "{zero:?} vs shift {}",
         c.relaxation_shift
     );
     let stretched = &c.agreement.samples[1];
     assert!(stretched.rms_reference > 0.1 * tile.radius, "{stretched:?}");
-    assert!(stretched.correlation.is_finite() && stretched.correlation.abs() <= 1.0);
+    // Under weft stretch the two fields point the same way overall.
+    assert!(stretched.correlation > 0.0, "{stretched:?}");
 }

@@ -4,8 +4,14 @@
 
 use std::path::PathBuf;
 
-use yarn_pattern::madypg::{AXES_FILE, DATA_FILE, Database};
+use yarn_pattern::madypg::{DATA_FILE, Database};
 use yarn_pattern::pyp::read_pyp;
+
+/// The tile of both tables: MADYPG ships it as `pyp` beside each, byte-identical to this file.
+const TILE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../tests/data/patterns/stockinette.pyp"
+);
 
 fn published(name: &str) -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data/madypg")).join(name)
@@ -21,7 +27,7 @@ fn position(axis: &[f64], value: f64) -> usize {
 fn published_tables_are_relative_to_their_tile_at_zero_strain() {
     for name in ["model_stock_5", "model_stock_9"] {
         let db = Database::read(published(name)).unwrap();
-        let tile = read_pyp(published(name).join("pyp")).unwrap().tile;
+        let tile = read_pyp(TILE).unwrap().tile;
         assert_eq!(db.n_vertices, tile.n_vertices(), "{name}");
         let zero = [0, 1, 2].map(|k| position(&db.axes[k], 0.0));
         let mut twist = 0.0f64;
@@ -101,9 +107,6 @@ fn a_published_table_round_trips_through_our_writer() {
             ours[header..] == theirs[header..],
             "{name}: data bytes differ"
         );
-        // The axes are written as the shortest decimal of each f64 (the file has ten digits).
-        let axes = std::fs::read_to_string(out.join(AXES_FILE)).unwrap();
-        assert_eq!(axes.lines().count(), 3);
     }
     std::fs::remove_dir_all(&dir).ok();
 }
