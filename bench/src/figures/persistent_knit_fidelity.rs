@@ -7,7 +7,8 @@
 //! - **paper**: the fixed quarter-turn wrapping rest angle of Eq. 2 and no yarn self-contact
 //!   (the simulator's defaults);
 //! - **contact + layout wrap**: the wrapping rest angle taken from the layout plus the small
-//!   wrapping bias ([`WrappingRest::default`]) and yarn self-contact.
+//!   wrapping bias ([`WrappingRest::Layout`] with [`DEFAULT_WRAP_BIAS`]) and yarn
+//!   self-contact.
 //!
 //! Every chart is laid out at Table 1's 3 mm loops; the stockinette is also laid out at the
 //! relaxed periodic tile's gauge ([`Gauge::RELAXED_STOCKINETTE`]) under the second model.
@@ -19,10 +20,11 @@
 //! (`knit-fidelity-images.png`, `…-paper-images.png`) show the settled swatches from the
 //! front.
 
+use rayon::prelude::*;
 use sim_persistent::chart::Chart;
 use sim_persistent::experiment::{FreeSwatch, FreeSwatchRun, Measures};
 use sim_persistent::layout::Gauge;
-use sim_persistent::params::{WrappingRest, YarnParams};
+use sim_persistent::params::{DEFAULT_WRAP_BIAS, WrappingRest, YarnParams};
 
 use crate::plot::{LineChart, Series, save_images};
 use crate::studies::persistent::render;
@@ -130,11 +132,14 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let time = if ctx.quick { 0.1 } else { 0.5 };
     let radius = YarnParams::sweater().radius;
     let swatches = swatches(ctx.quick)?;
+    let layout_wrap = WrappingRest::Layout {
+        wrap: DEFAULT_WRAP_BIAS,
+    };
     // (model, chart index, swatch) of every run, the paper model first.
     let mut runs: Vec<(&'static str, usize, FreeSwatch)> = Vec::new();
     for (model, wrapping, contact) in [
         ("paper", WrappingRest::paper(), false),
-        ("contact + layout wrap", WrappingRest::default(), true),
+        ("contact + layout wrap", layout_wrap, true),
     ] {
         for (k, (_, chart)) in swatches.iter().enumerate() {
             runs.push((
@@ -156,7 +161,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         FreeSwatch {
             chart: swatches[0].1.clone(),
             gauge: Some(Gauge::RELAXED_STOCKINETTE),
-            wrapping: WrappingRest::default(),
+            wrapping: layout_wrap,
             yarn_contact: true,
             time,
         },
@@ -193,12 +198,21 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let mut summary = Vec::new();
     let mut rows = Vec::new();
     let (mut paper_images, mut images) = (Vec::new(), Vec::new());
-    for (i, (model, k, spec)) in runs.iter().enumerate() {
+    // The runs are independent: simulate them in parallel, then measure and render in order.
+    let simulated = runs
+        .par_iter()
+        .map(|(model, k, spec)| {
+            let name = swatches[*k].0;
+            let out = spec
+                .simulate()
+                .map_err(|e| anyhow::anyhow!("{name} ({model}): {e:#}"));
+            progress.inc(1);
+            out
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    for (i, ((model, k, spec), (result, sim))) in runs.iter().zip(simulated).enumerate() {
         let name = swatches[*k].0;
         let tile_gauge = spec.gauge.is_some();
-        let (result, sim) = spec
-            .simulate()
-            .map_err(|e| anyhow::anyhow!("{name} ({model}): {e:#}"))?;
         let FreeSwatchRun {
             end,
             yarn_per_loop,
@@ -274,7 +288,6 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             end,
             kinetic_ratio,
         });
-        progress.inc(1);
     }
     for (set, stem) in [(&images, "images"), (&paper_images, "paper-images")] {
         let panels: Vec<(&str, &yarn_output::render::Image)> =
