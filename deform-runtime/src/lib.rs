@@ -36,8 +36,8 @@
 //!   figures, and the throughput benchmark's scene.
 //!
 //! The `deform-runtime run` binary drives all of it from files (OBJ sequences in, OBJ / PLY /
-//! `.bcc` / `.usda` polylines through `yarn-output`, optional rendered PNGs and a JSON manifest
-//! out).
+//! `.bcc` / `.usda` polylines per frame or one time-sampled USD cache of the sequence through
+//! `yarn-output`, optional rendered PNGs and a JSON manifest out).
 //!
 //! Figures built on this crate (`cargo xtask reproduce-figures`, modules
 //! `bench/src/figures/deform_*.rs`): `throughput` and `compression-clamping` (synthetic

@@ -38,6 +38,8 @@ enum Format {
     Ply,
     Bcc,
     Usda,
+    /// One USD cache of every frame (`yarns.usda`, time-sampled points and extents).
+    UsdCache,
 }
 
 #[derive(Subcommand)]
@@ -70,9 +72,13 @@ struct RunArgs {
     /// Lower bound on the eigenvalues of I (compression clamping).
     #[arg(long, default_value_t = 0.8)]
     lambda_min: f64,
-    /// Output formats (repeatable).
+    /// Output formats (repeatable): one file per frame, or `usd-cache` for one USD cache of
+    /// the whole sequence (`yarns.usda`).
     #[arg(long = "format", value_enum, default_values_t = vec![Format::Obj])]
     formats: Vec<Format>,
+    /// Frames per second of the mesh sequence (the USD cache's time codes per second).
+    #[arg(long, default_value_t = 24.0)]
+    fps: f64,
     /// Turn off compression clamping.
     #[arg(long)]
     no_clamping: bool,
@@ -167,6 +173,9 @@ fn write_yarns(
         Format::Ply => yarn_output::write_with(file, |w| ply::write(w, lines, COMMENT))?,
         Format::Bcc => yarn_output::write_file(file, &bcc::to_bytes(lines, &bcc_header)?)?,
         Format::Usda => yarn_output::write_file(file, usda::to_string(lines, &usd)?.as_bytes())?,
+        Format::UsdCache => {
+            anyhow::bail!("the USD cache is written by usda::Sequence, not per frame")
+        }
     }
     Ok(())
 }
@@ -238,6 +247,20 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         .progress_chars("=> "),
     );
     bar.set_message("frames");
+    let mut cache = if args.formats.contains(&Format::UsdCache) {
+        let options = usda::SequenceOptions {
+            radius: tile.radius,
+            up: UpAxis::Z,
+            comment: COMMENT.to_string(),
+            frames_per_second: args.fps,
+        };
+        Some(usda::Sequence::create(
+            &args.out.join("yarns.usda"),
+            options,
+        )?)
+    } else {
+        None
+    };
     let mut positions = Vec::new();
     let mut per_frame = Vec::new();
     for (k, path) in frames.iter().enumerate() {
@@ -248,12 +271,16 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         let o = backend.output(&deformer);
         let lines = e.polylines(o);
         let mut written = Vec::new();
+        if let Some(cache) = &mut cache {
+            cache.push(&lines, &[])?;
+        }
         for format in &args.formats {
             let ext = match format {
                 Format::Obj => "obj",
                 Format::Ply => "ply",
                 Format::Bcc => "bcc",
                 Format::Usda => "usda",
+                Format::UsdCache => continue,
             };
             let file = args.out.join(format!("yarns_{:06}.{ext}", k + 1));
             write_yarns(&file, *format, &lines, tile.radius)?;
@@ -276,7 +303,9 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         bar.inc(1);
     }
     bar.finish_and_clear();
+    let cache = cache.map(usda::Sequence::finish).transpose()?;
     let manifest = serde_json::json!({
+        "usd_cache": cache,
         "tool": "deform-runtime run",
         "version": env!("CARGO_PKG_VERSION"),
         "config": args,

@@ -72,6 +72,10 @@ fn run_writes_frames_and_manifest_and_reports_bad_meshes() {
             "obj",
             "--format",
             "bcc",
+            "--format",
+            "usd-cache",
+            "--fps",
+            "30",
             "--png",
             "--png-size",
             "160x120",
@@ -117,6 +121,24 @@ fn run_writes_frames_and_manifest_and_reports_bad_meshes() {
         serde_json::Value::Bool(true)
     );
     assert!(manifest["embedding"]["vertices"].as_u64().unwrap() > 100);
+    // --format usd-cache: one USD cache of the three frames, which Pixar's USD loads.
+    let cache = out.join("yarns.usda");
+    assert_eq!(manifest["usd_cache"].as_str(), cache.to_str());
+    let text = std::fs::read_to_string(&cache).unwrap();
+    assert!(text.contains("timeCodesPerSecond = 30") && text.contains("endTimeCode = 2"));
+    if yarn_output::usda::usd_available() {
+        let report = yarn_output::usda::check_with_usd(&cache, 3, 0).unwrap();
+        assert_eq!(report.lines().count(), 3, "{report}");
+    } else {
+        assert!(
+            std::env::var_os("WORKBENCH_REQUIRE_USD").is_none(),
+            "WORKBENCH_REQUIRE_USD is set but python3 cannot import pxr (pip install usd-core)"
+        );
+        eprintln!(
+            "skipping the USD check of {}: no pxr module",
+            cache.display()
+        );
+    }
     // --png: one rendered PNG per frame, 160 × 120, with every yarn edge drawn.
     for (k, frame) in frames.iter().enumerate() {
         let png = std::fs::read(out.join(format!("frame_{:04}.png", k + 1))).unwrap();

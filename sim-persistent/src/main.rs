@@ -97,8 +97,9 @@ fn run(path: PathBuf, out: Option<PathBuf>) -> Result<()> {
     }
     let mut run = scene.build()?;
     let (params, ..) = scene.yarn()?;
-    let mut writer = FrameWriter::new(&out, &scene.output, params.radius)?;
     let every = scene.frame_every();
+    let frame_interval = every as f64 * run.sim.settings().dt;
+    let mut writer = FrameWriter::new(&out, &scene.output, params.radius, frame_interval)?;
     let start = Instant::now();
     let mut written = writer.write(&run.sim)?;
     let first = written.clone();
@@ -116,12 +117,16 @@ fn run(path: PathBuf, out: Option<PathBuf>) -> Result<()> {
             );
         }
     }
+    let frames = writer.frames_written();
+    let cache = writer.finish()?;
     println!(
-        "{} frames ({:?}, every {every} steps) in {}",
-        writer.frames_written(),
+        "{frames} frames ({:?}, every {every} steps) in {}",
         scene.output.formats,
         out.display()
     );
+    if let Some(cache) = cache {
+        println!("  {} (USD cache of every frame)", cache.display());
+    }
     for p in first.iter().chain(if written == first {
         &[][..]
     } else {

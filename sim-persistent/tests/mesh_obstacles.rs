@@ -508,11 +508,33 @@ fn scene_mesh_obstacles() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Checks the USD cache `path` with Pixar's USD library
+/// ([`yarn_output::usda::check_with_usd`]). Where `python3` lacks the `usd-core` package the
+/// check is skipped with a message, unless `WORKBENCH_REQUIRE_USD` is set (CI sets it and
+/// installs the package).
+fn check_usd_cache(path: &std::path::Path, frames: usize, meshes: usize) {
+    if !yarn_output::usda::usd_available() {
+        assert!(
+            std::env::var_os("WORKBENCH_REQUIRE_USD").is_none(),
+            "WORKBENCH_REQUIRE_USD is set but python3 cannot import pxr (pip install usd-core)"
+        );
+        eprintln!(
+            "skipping the USD check of {}: no pxr module",
+            path.display()
+        );
+        return;
+    }
+    let report = yarn_output::usda::check_with_usd(path, frames, meshes).unwrap();
+    eprintln!("{report}");
+}
+
 /// Frames of a simulation with a mesh obstacle show it: the PNG has pixels of the obstacle's
 /// colour (shaded) and the USD file holds a `Mesh` prim with its triangles beside the yarns.
+/// The run's USD cache holds the yarns and the obstacle over three frames, and Pixar's USD
+/// library loads it as one animation ([`check_usd_cache`]).
 #[test]
 fn frames_draw_mesh_obstacles() {
-    use sim_persistent::output::{Format, FrameWriter, OBSTACLE_COLOUR, OutputSpec};
+    use sim_persistent::output::{CACHE_FILE, Format, FrameWriter, OBSTACLE_COLOUR, OutputSpec};
     let mut sim = weave_sim(3);
     let mesh = TriangleMesh::icosphere(V3::new(3e-3, 3e-3, -6e-3), 4e-3, 2, 4e-3).unwrap();
     let triangles = mesh.triangles().len();
@@ -520,12 +542,21 @@ fn frames_draw_mesh_obstacles() {
         .unwrap();
     let dir = tmpdir("frames");
     let spec = OutputSpec {
-        formats: vec![Format::Png, Format::Usda],
+        formats: vec![Format::Png, Format::Usda, Format::UsdCache],
         png_size: [120, 90],
         ..OutputSpec::default()
     };
-    let mut writer = FrameWriter::new(&dir, &spec, R).unwrap();
+    let dt = sim.settings().dt;
+    let mut writer = FrameWriter::new(&dir, &spec, R, dt).unwrap();
     let paths = writer.write(&sim).unwrap();
+    assert_eq!(paths.len(), 2, "the cache is written at the end: {paths:?}");
+    for _ in 0..2 {
+        sim.step().unwrap();
+        writer.write(&sim).unwrap();
+    }
+    let cache = writer.finish().unwrap().expect("a cache was asked for");
+    assert_eq!(cache, dir.join(CACHE_FILE));
+    check_usd_cache(&cache, 3, 1);
     let usda = std::fs::read_to_string(&paths[1]).unwrap();
     assert!(usda.contains("def Mesh \"Mesh0\""), "{}", &usda[..200]);
     let counts = usda

@@ -302,7 +302,8 @@ fn woven_scene_steps_and_writes_every_format() {
     let (params, ..) = scene.yarn().unwrap();
     let dir = std::env::temp_dir().join(format!("sim-persistent-out-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let mut writer = FrameWriter::new(&dir, &scene.output, params.radius).unwrap();
+    let dt = run.sim.settings().dt;
+    let mut writer = FrameWriter::new(&dir, &scene.output, params.radius, dt).unwrap();
     let mut files = writer.write(&run.sim).unwrap();
     let y0 = run.sim.dofs().position(&run.sim.state().q, 0).y;
     for _ in 0..scene.steps {

@@ -165,3 +165,139 @@ fn usda_parses_with_an_independent_usd_parser() {
     };
     assert!(usda::to_string(&sample().view(), &bad_mesh).is_err());
 }
+
+/// The pseudo-root field `name` of a parsed layer.
+fn layer_field(data: &openusd::sdf::Data, name: &str) -> Value {
+    let spec = data.spec(&Path::abs_root()).expect("a pseudo-root");
+    spec.fields
+        .iter()
+        .find(|(k, _)| k == name)
+        .unwrap_or_else(|| panic!("the layer has no {name}"))
+        .1
+        .clone()
+}
+
+/// The time samples of attribute `path` of a parsed layer.
+fn samples(data: &openusd::sdf::Data, path: &str) -> Vec<(f64, Value)> {
+    let spec = data
+        .spec(&Path::new(path).unwrap())
+        .unwrap_or_else(|| panic!("no spec {path}"));
+    match spec.fields.iter().find(|(k, _)| k == "timeSamples") {
+        Some((_, Value::TimeSamples(s))) => s.clone(),
+        other => panic!("{path}: no time samples ({other:?})"),
+    }
+}
+
+/// A three-frame cache of the sample curves (moving along x) and one mesh, read back by the
+/// independent parser: frame range and rate in the layer metadata, one points and one extent
+/// sample per frame with the frame's points, the extent holding the points grown by R, the
+/// mesh's topology once and its points per frame, and no side file left behind.
+#[test]
+fn usda_sequence_is_one_layer_with_time_samples() {
+    let dir = std::env::temp_dir().join(format!("yarn-output-seq-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("cache.usda");
+    let options = usda::SequenceOptions {
+        radius: 0.5e-3,
+        up: UpAxis::Z,
+        comment: "test cache".into(),
+        frames_per_second: 100.0,
+    };
+    let mut seq = usda::Sequence::create(&path, options.clone()).unwrap();
+    let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.5]];
+    for k in 0..3 {
+        let shift = k as f64 * 1e-3;
+        let mut b = PolylineBuf::default();
+        for (c, closed) in [(0usize, false), (1, true)] {
+            let curve: Vec<[f64; 3]> = (0..3 + c)
+                .map(|i| [shift + i as f64 * 1e-3, c as f64, 0.0])
+                .collect();
+            b.push_curve(curve, closed).unwrap();
+        }
+        let moved: Vec<[f64; 3]> = tri.iter().map(|p| [p[0] + shift, p[1], p[2]]).collect();
+        let mesh = yarn_output::render::MeshLayer {
+            positions: &moved,
+            triangles: &[[0, 1, 2]],
+            colour: [0, 128, 255],
+        };
+        seq.push(&b.view(), &[mesh]).unwrap();
+    }
+    assert_eq!(seq.frames(), 3);
+    assert_eq!(seq.finish().unwrap(), path);
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(leftovers, [std::ffi::OsString::from("cache.usda")]);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let data = openusd::usda::parse(&text).unwrap_or_else(|e| panic!("{e:#}\n{text}"));
+    assert!(matches!(layer_field(&data, "startTimeCode"), Value::Double(t) if t == 0.0));
+    assert!(matches!(layer_field(&data, "endTimeCode"), Value::Double(t) if t == 2.0));
+    assert!(matches!(layer_field(&data, "timeCodesPerSecond"), Value::Double(t) if t == 100.0));
+    let points = samples(&data, "/Yarns.points");
+    let extents = samples(&data, "/Yarns.extent");
+    assert_eq!(points.len(), 3);
+    assert_eq!(extents.len(), 3);
+    for (k, ((tp, p), (te, e))) in points.iter().zip(&extents).enumerate() {
+        assert_eq!((*tp, *te), (k as f64, k as f64));
+        let (Value::Vec3fVec(p), Value::Vec3fVec(e)) = (p, e) else {
+            panic!("frame {k}: {p:?} / {e:?}");
+        };
+        // 3 open points and 4 closed ones plus the repeated start.
+        assert_eq!(p.len(), 8);
+        let shift = k as f32 * 1e-3;
+        assert!((p[0].x - shift).abs() < 1e-9, "{:?}", p[0]);
+        assert!((e[0].x - (shift - 0.5e-3)).abs() < 1e-7, "{:?}", e[0]);
+        assert!(
+            (e[1].x - (shift + 3e-3 + 0.5e-3)).abs() < 1e-7,
+            "{:?}",
+            e[1]
+        );
+        assert!(p.iter().all(|q| (e[0].x..=e[1].x).contains(&q.x)
+            && (e[0].y..=e[1].y).contains(&q.y)
+            && (e[0].z..=e[1].z).contains(&q.z)));
+    }
+    assert_eq!(samples(&data, "/Mesh0.points").len(), 3);
+    assert_eq!(samples(&data, "/Mesh0.extent").len(), 3);
+    // Pixar's USD loads it too (where python3 has usd-core; CI requires it).
+    if usda::usd_available() {
+        let report = usda::check_with_usd(&path, 3, 1).unwrap();
+        assert_eq!(report.lines().count(), 3, "{report}");
+        // The checker is not vacuous: a frame count the cache does not have is refused.
+        assert!(usda::check_with_usd(&path, 4, 1).is_err());
+    } else {
+        assert!(
+            std::env::var_os("WORKBENCH_REQUIRE_USD").is_none(),
+            "WORKBENCH_REQUIRE_USD is set but python3 cannot import pxr (pip install usd-core)"
+        );
+        eprintln!("skipping the USD check: no pxr module");
+    }
+
+    // A mesh that changes its triangles, no frames, and a bad frame rate are refused.
+    let mut seq = usda::Sequence::create(&dir.join("bad.usda"), options.clone()).unwrap();
+    let layer = |t: &'static [[u32; 3]]| yarn_output::render::MeshLayer {
+        positions: &tri,
+        triangles: t,
+        colour: [0, 0, 0],
+    };
+    seq.push(&sample().view(), &[layer(&[[0, 1, 2]])]).unwrap();
+    let err = seq
+        .push(&sample().view(), &[layer(&[[0, 2, 1]])])
+        .unwrap_err();
+    assert!(err.to_string().contains("mesh topology"), "{err}");
+    let empty = usda::Sequence::create(&dir.join("empty.usda"), options.clone()).unwrap();
+    assert!(
+        empty
+            .finish()
+            .unwrap_err()
+            .to_string()
+            .contains("at least one frame")
+    );
+    let bad = usda::SequenceOptions {
+        frames_per_second: 0.0,
+        ..options
+    };
+    assert!(usda::Sequence::create(&dir.join("x.usda"), bad).is_err());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -70,7 +70,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         supersample: 2,
         ..OutputSpec::default()
     };
-    let mut frames = FrameWriter::new(&frames_dir, &png, r)?;
+    let mut frames = FrameWriter::new(&frames_dir, &png, r, frame_every as f64 * dt)?;
     frames.write(&dressing.sim)?;
     let view_front = [0.0, 0.0, -1.0];
     let view_top = [0.3, -1.0, -0.5];
@@ -127,7 +127,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         formats: vec![Format::Usda],
         ..OutputSpec::default()
     };
-    let mut last = FrameWriter::new(&frames_dir, &usd, r)?;
+    let mut last = FrameWriter::new(&frames_dir, &usd, r, frame_every as f64 * dt)?;
     let usd_paths = last.write(&dressing.sim)?;
     let final_usd = frames_dir.join("final.usda");
     std::fs::rename(&usd_paths[0], &final_usd)?;

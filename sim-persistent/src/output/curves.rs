@@ -187,7 +187,7 @@ impl RenderCurves {
     }
 
     /// The spline samples (`samples = true`) or the offset control points as open polylines.
-    fn polylines(&self, samples: bool) -> Result<PolylineBuf, OutputError> {
+    pub(crate) fn polylines(&self, samples: bool) -> Result<PolylineBuf, OutputError> {
         let curves = if samples {
             &self.samples
         } else {

@@ -5,7 +5,9 @@ use super::{OutputError, nodes_obj_text, write_file};
 use crate::integrator::Simulator;
 use serde::{Deserialize, Deserializer};
 use std::path::{Path, PathBuf};
+use yarn_output::UpAxis;
 use yarn_output::render::{Camera, Framing, RenderOptions};
+use yarn_output::usda::{Sequence, SequenceOptions};
 
 /// An output file format of `[output] formats`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
@@ -23,12 +25,19 @@ pub enum Format {
     Png,
     /// The simulated node polylines as OBJ (`frame_NNNNN.nodes.obj`).
     Nodes,
+    /// One USD cache of the whole run (`yarns.usda`): the rendering curves and the
+    /// obstacles with time-sampled points and extents, one time code per frame
+    /// ([`yarn_output::usda::Sequence`]), written when the run finishes.
+    #[serde(rename = "usd_cache")]
+    UsdCache,
 }
 
 impl Format {
-    /// The file name of frame `frame` in this format.
+    /// The file name of frame `frame` in this format (the one cache file for
+    /// [`Format::UsdCache`]).
     pub fn file_name(self, frame: usize) -> String {
         let ext = match self {
+            Format::UsdCache => return CACHE_FILE.to_string(),
             Format::Obj => "obj",
             Format::Ply => "ply",
             Format::Bcc => "bcc",
@@ -39,6 +48,9 @@ impl Format {
         format!("frame_{frame:05}.{ext}")
     }
 }
+
+/// The file name of the run's USD cache ([`Format::UsdCache`]).
+pub const CACHE_FILE: &str = "yarns.usda";
 
 /// A PNG camera preset of `[output] view`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
@@ -116,7 +128,7 @@ fn de_formats<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Format>, D::Error> 
     let v = Vec::<Format>::deserialize(d)?;
     if v.is_empty() {
         return Err(serde::de::Error::custom(
-            "`formats` needs at least one of \"obj\", \"ply\", \"bcc\", \"usda\", \"png\", \"nodes\"",
+            "`formats` needs at least one of \"obj\", \"ply\", \"bcc\", \"usda\", \"usd_cache\", \"png\", \"nodes\"",
         ));
     }
     for (i, f) in v.iter().enumerate() {
@@ -168,32 +180,59 @@ fn de_supersample<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
 }
 
 /// Writes the frames of a run in the formats of an [`OutputSpec`]: `dir/frame_NNNNN.<ext>`,
-/// frames numbered from 0. PNG frames share the framing of the first one (auto-fitted with a
-/// 10 % margin), so an animation keeps one scale.
-#[derive(Clone, Debug)]
+/// frames numbered from 0, and the run's USD cache `dir/yarns.usda` when
+/// [`FrameWriter::finish`] is called. PNG frames share the framing of the first one
+/// (auto-fitted with a 10 % margin), so an animation keeps one scale.
+#[derive(Debug)]
 pub struct FrameWriter {
     dir: PathBuf,
     spec: OutputSpec,
     curve: CurveOptions,
     framing: Option<Framing>,
+    cache: Option<Sequence>,
     next: usize,
 }
 
 impl FrameWriter {
-    /// A writer into `dir` (which must exist) for yarns of radius `radius` (m).
-    pub fn new(dir: &Path, spec: &OutputSpec, radius: f64) -> Result<Self, OutputError> {
+    /// A writer into `dir` (which must exist) for yarns of radius `radius` (m), with
+    /// `frame_interval` seconds of simulated time between frames (the USD cache's frame rate
+    /// is its inverse).
+    pub fn new(
+        dir: &Path,
+        spec: &OutputSpec,
+        radius: f64,
+        frame_interval: f64,
+    ) -> Result<Self, OutputError> {
         let curve = CurveOptions {
             radius,
             samples_per_segment: spec.samples,
         };
         curve.validate()?;
+        let cache = if spec.formats.contains(&Format::UsdCache) {
+            let options = SequenceOptions {
+                radius,
+                up: UpAxis::Y,
+                comment: super::COMMENT.to_string(),
+                frames_per_second: 1.0 / frame_interval,
+            };
+            Some(Sequence::create(&dir.join(CACHE_FILE), options)?)
+        } else {
+            None
+        };
         Ok(Self {
             dir: dir.to_path_buf(),
             spec: spec.clone(),
             curve,
             framing: None,
+            cache,
             next: 0,
         })
+    }
+
+    /// Writes the USD cache of the frames so far (if `[output] formats` asks for one) and
+    /// returns its path.
+    pub fn finish(self) -> Result<Option<PathBuf>, OutputError> {
+        Ok(self.cache.map(Sequence::finish).transpose()?)
     }
 
     /// Frames written so far.
@@ -217,6 +256,11 @@ impl FrameWriter {
             let path = self.dir.join(format.file_name(frame));
             match (format, &curves) {
                 (Format::Nodes, _) => write_file(&path, nodes_obj_text(sim).as_bytes())?,
+                (Format::UsdCache, Some(c)) => {
+                    let cache = self.cache.as_mut().expect("created with the format");
+                    cache.push(&c.polylines(true)?.view(), &layers)?;
+                    continue;
+                }
                 (Format::Obj, Some(c)) => write_file(&path, c.obj_text()?.as_bytes())?,
                 (Format::Ply, Some(c)) => write_file(&path, c.ply_text()?.as_bytes())?,
                 (Format::Bcc, Some(c)) => write_file(&path, &c.bcc_bytes(self.spec.bcc)?)?,

@@ -80,20 +80,25 @@
 //!   samples as a polyline (exactly the OBJ/PLY geometry).
 //! - **USD** ([`RenderCurves::usda_text`], `.usda`, [`yarn_output::usda`]): one linear
 //!   `BasisCurves` prim of the samples, width `2R`, up axis Y.
+//! - **USD cache** (`usd_cache`, one `yarns.usda` per run, [`yarn_output::usda::Sequence`]):
+//!   the same prims with time-sampled points and extents, one time code per frame at the
+//!   run's frame rate, so that Blender, Houdini or usdview load the animation as one file;
+//!   written by [`FrameWriter::finish`].
 //! - **PNG** ([`RenderCurves::render`], `.png`): the samples drawn as shaded tubes of radius
 //!   `R` by [`yarn_output::render`] (orthographic, depth-buffered, one palette colour per
 //!   yarn), 8-bit RGB.
 //! - **Nodes OBJ** ([`nodes_obj_text`], `.nodes.obj`): the simulated geometry itself — one `v`
 //!   per contact node and one `l` per yarn through its passes (the straight segments).
 //! - **Mesh obstacles** ([`ObstacleMeshes`]) are drawn into the PNG frames and written as
-//!   `Mesh` prims beside the yarns into the USD frames (OBJ, PLY and `.bcc` hold yarns only).
+//!   `Mesh` prims beside the yarns into the USD frames and cache (OBJ, PLY and `.bcc` hold
+//!   yarns only).
 
 mod curves;
 mod frames;
 mod normals;
 
 pub use curves::{BccCurve, CurveOptions, MAX_SAMPLES_PER_SEGMENT, RenderCurves, catmull_rom};
-pub use frames::{Format, FrameWriter, OutputSpec, View};
+pub use frames::{CACHE_FILE, Format, FrameWriter, OutputSpec, View};
 pub use normals::{
     COLLINEAR_RATIO, NodeNormals, NormalSource, fit_plane_normal, node_normals, offset_sides,
 };

@@ -115,8 +115,9 @@
 //! # Output
 //!
 //! [`crate::output::FrameWriter`] writes each frame in the formats of `[output]`: the smooth,
-//! normal-offset rendering curves of §3.2 as OBJ, PLY, `.bcc` and PNG, and optionally the
-//! simulated node polylines ("nodes"). [`write_obj`] / [`obj_text`] keep the former output:
+//! normal-offset rendering curves of §3.2 as OBJ, PLY, `.bcc`, USD and PNG, optionally the
+//! simulated node polylines ("nodes"), and with `"usd_cache"` one USD cache of the whole run
+//! (`yarns.usda`, time-sampled, at one time code per written frame). [`write_obj`] / [`obj_text`] keep the former output:
 //! a `v` line per contact node and an `l` polyline per yarn through its nodes in yarn order.
 
 mod specs;
