@@ -166,6 +166,7 @@ pub fn all_figures() -> Vec<FigureSpec> {
         periodic_tiles::spec(),
         periodic_bending::spec(),
         periodic_time_vs_error::spec(),
+        periodic_vs_reference::spec(),
         periodic_databases::spec(),
         persistent_rib_stretch::spec(),
         persistent_curl::spec(),

@@ -83,7 +83,9 @@ pub enum Style {
     Dashed,
 }
 
-/// One named curve of a chart.
+/// One named curve of a chart. A point that cannot be drawn (not finite, or not positive on
+/// a log axis) is left out; in a line it breaks the line, so NaN separates pieces of one
+/// curve.
 #[derive(Debug, Clone)]
 pub struct Series {
     name: String,
@@ -457,9 +459,30 @@ where
         let line = color.stroke_width(2);
         let dot = color.filled();
         let pts: Vec<(f64, f64)> = s.points.iter().filter(drawable).copied().collect();
+        // Lines break where a point cannot be drawn (NaN or, on a log axis, non-positive):
+        // runs after the first are drawn without a legend entry, the first with it.
+        let mut runs: Vec<Vec<(f64, f64)>> = s
+            .points
+            .split(|p| !drawable(&p))
+            .filter(|r| !r.is_empty())
+            .map(<[(f64, f64)]>::to_vec)
+            .collect();
+        let first = if runs.is_empty() {
+            Vec::new()
+        } else {
+            runs.remove(0)
+        };
+        let lines = matches!(s.style, Style::Line | Style::LineMarkers | Style::Dashed);
+        for run in runs.into_iter().filter(|_| lines) {
+            if matches!(s.style, Style::Dashed) {
+                cc.draw_series(DashedLineSeries::new(run, 8, 5, line))?;
+            } else {
+                cc.draw_series(LineSeries::new(run, line))?;
+            }
+        }
         let anno = match s.style {
             Style::Line => cc
-                .draw_series(LineSeries::new(pts, line))?
+                .draw_series(LineSeries::new(first, line))?
                 .legend(move |(x, y)| PathElement::new([(x, y), (x + 24, y)], line)),
             Style::Markers => cc
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 4, dot)))?
@@ -469,7 +492,7 @@ where
                 .legend(move |(x, y)| TriangleMarker::new((x + 12, y), 6, dot)),
             Style::LineMarkers => {
                 cc.draw_series(pts.iter().map(|&p| Circle::new(p, 4, dot)))?;
-                cc.draw_series(LineSeries::new(pts, line))?
+                cc.draw_series(LineSeries::new(first, line))?
                     .legend(move |(x, y)| {
                         EmptyElement::at((x, y))
                             + PathElement::new([(0, 0), (24, 0)], line)
@@ -477,7 +500,7 @@ where
                     })
             }
             Style::Dashed => cc
-                .draw_series(DashedLineSeries::new(pts, 8, 5, line))?
+                .draw_series(DashedLineSeries::new(first, 8, 5, line))?
                 .legend(move |(x, y)| DashedPathElement::new([(x, y), (x + 24, y)], 7, 4, line)),
         };
         if !s.name.is_empty() {

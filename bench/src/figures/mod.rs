@@ -18,6 +18,7 @@ pub mod periodic_curves;
 pub mod periodic_databases;
 pub mod periodic_tiles;
 pub mod periodic_time_vs_error;
+pub mod periodic_vs_reference;
 pub mod persistent_curl;
 pub mod persistent_garment;
 pub mod persistent_knit_fidelity;
