@@ -219,6 +219,11 @@ fn select<'a>(
         .collect())
 }
 
+/// A figure's hand-written notes in its report folder (`reports/<figure>/NOTES.md`): the
+/// measured history of its settings, with the runs, dates and revisions they come from, which
+/// do not belong in the code's documentation. Kept when the figure is regenerated.
+pub const NOTES_FILE: &str = "NOTES.md";
+
 fn run_one(
     spec: &FigureSpec,
     quick: bool,
@@ -237,12 +242,19 @@ fn run_one(
     };
     let out_dir = opts.reports_dir.join(spec.name);
     let result = (|| -> anyhow::Result<()> {
-        // The folder is generated output: start from scratch so nothing stale survives.
+        // The folder is generated output: start from scratch so nothing stale survives,
+        // except the figure's hand-written notes (NOTES_FILE), which are kept.
+        let notes_path = out_dir.join(NOTES_FILE);
+        let notes = fs::read(&notes_path).ok();
         if out_dir.exists() {
             fs::remove_dir_all(&out_dir)
                 .with_context(|| format!("removing old {}", out_dir.display()))?;
         }
         fs::create_dir_all(&out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
+        if let Some(notes) = notes {
+            fs::write(&notes_path, notes)
+                .with_context(|| format!("restoring {}", notes_path.display()))?;
+        }
 
         let ctx = FigureContext::with_progress(
             spec.name,
@@ -439,7 +451,7 @@ fn git_revision(dir: &Path) -> String {
         .unwrap_or_else(|| "unknown".to_string())
 }
 
-/// RFC 3339 UTC timestamp, e.g. `2025-06-01T12:34:56Z`.
+/// RFC 3339 UTC timestamp, `YYYY-MM-DDThh:mm:ssZ`.
 fn utc_timestamp(t: SystemTime) -> String {
     let secs = t.duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs());
     let (days, rem) = (secs / 86_400, secs % 86_400);
@@ -534,7 +546,17 @@ mod tests {
             "--bless implies quick mode"
         );
 
+        // A rerun replaces the generated files but keeps the figure's notes.
         let dir = reports_dir.join("test-squares");
+        fs::write(dir.join(NOTES_FILE), "# notes\n").unwrap();
+        fs::write(dir.join("stale.txt"), "old").unwrap();
+        run_specs(&specs, &opts).unwrap();
+        assert_eq!(
+            fs::read_to_string(dir.join(NOTES_FILE)).unwrap(),
+            "# notes\n"
+        );
+        assert!(!dir.join("stale.txt").exists());
+
         for file in [
             "test-squares.png",
             "test-squares.svg",
@@ -635,7 +657,7 @@ mod tests {
 
     #[test]
     fn timestamps_are_rfc3339() {
-        let t = UNIX_EPOCH + Duration::from_secs(951_782_400 + 3_723); // 2000-02-29 01:02:03
+        let t = UNIX_EPOCH + Duration::from_secs(951_782_400 + 3_723); // 29 February 2000, 01:02:03
         assert_eq!(utc_timestamp(t), "2000-02-29T01:02:03Z");
         assert_eq!(utc_timestamp(UNIX_EPOCH), "1970-01-01T00:00:00Z");
     }

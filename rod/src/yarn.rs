@@ -57,7 +57,7 @@ impl YarnMaterial {
     /// below the known yarn's 20 N), the persistent swatch took its stitch-length, friction
     /// and loop-contact stiffnesses 100× softer than with `k₂` and its weft stretch failed at
     /// s = 0.044 (Newton, 200 iterations, after 4 halvings); with them from the known 20 N it
-    /// ran to the end (throw-away probe, 2026-11-30).
+    /// ran to the end (a throw-away probe).
     pub fn small_strain_stiffness(&self) -> f64 {
         match self.stretch {
             StretchLaw::Linear { k } => k,

@@ -3,7 +3,7 @@
 //! part of the stretch range.
 //!
 //! **Grouping.** A stitch-by-stitch file's fabric and direction come from its name
-//! ([`measurements::split_name`]: `acrylic-yarn-garter-x.csv` and `…-y.csv` are one fabric;
+//! ([`crate::measurements::split_name`]: `acrylic-yarn-garter-x.csv` and `…-y.csv` are one fabric;
 //! `babyredo_stockxnew.csv` and `babyredo_stockinettey.csv` are another). A per-direction
 //! `direction,s,f_s,c` file is a fabric of its own (named by its stem).
 //!

@@ -45,7 +45,7 @@
 //! `C₁₁ = f₁·f₁`, `C₂₂ = f₂·f₂`, `C₁₂ = f₁·f₂` (`f_a` the columns of `F`).
 //!
 //! **Parameter derivatives.** The adjoint fit needs `∂(∂Ψ/∂c)/∂p_k` for every parameter
-//! ([`Material::eval_c_dparams`]). Ψ is linear in the six stiffnesses (for the stiffening
+//! ([`Material::eval_c_dparam`]). Ψ is linear in the six stiffnesses (for the stiffening
 //! model: at fixed rates), so for those it is `∂Ψ/∂c` of the unit parameter; for the rates it is
 //! the closed form `∂φ'/∂β = E² h₂(βE)`, `h₂(x) = (x eˣ − eˣ + 1)/x²` (with `∂β/∂c = −1`).
 

@@ -166,7 +166,7 @@ const PATTERN_ALIASES: [(&str, &str); 2] = [("stock", "stockinette"), ("moss", "
 /// Splits a measurement file name into its fabric name and test direction. The stem is split
 /// at `-`, `_`, `.` and spaces; trailing version words (`new`, `old`, `v2`, digits) are
 /// dropped, also when glued to the end of the last token (`garterxnew`); then the last token
-/// names the direction ([`direction_token`]: `…-x`, `…_y`, `…-weft`, `…_course`, `…_gartery`,
+/// names the direction (`direction_token`: `…-x`, `…_y`, `…-weft`, `…_course`, `…_gartery`,
 /// `…_stockxnew`). The fabric name is the remaining tokens joined by `-`, pattern words in
 /// their canonical spelling (`babyredo_stockxnew` → `babyredo-stockinette`, weft). `None` when
 /// the last token names no direction.

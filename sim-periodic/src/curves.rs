@@ -91,8 +91,8 @@ pub struct CurveSettings {
     /// weft curve at 5 stretches) takes 17 solves instead of 26, but its times were within this
     /// machine's noise: 798 against 741 ms in one run, 881 against 987 ms in the next.
     ///
-    /// It is off by default because a full `yarn-fit` run with it (commit ccd574d, against
-    /// the committed run at e30cc82, same machine) was not faster end to end, and its fits
+    /// It is off by default because a full `yarn-fit` run with it (against the committed run
+    /// before it, same machine) was not faster end to end, and its fits
     /// went elsewhere. The roots agree with the secant's to within 1e-6 (the stockinette weft
     /// curve of `tests/database.rs`), but which solves fail changes too, and the swarm and the
     /// local starts followed other paths:

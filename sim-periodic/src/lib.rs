@@ -23,7 +23,7 @@
 //! | [`bending_database`] | bending-direction databases per curvature (seed 004 Appendix C) from an in-plane database, restriction to nested grids |
 //! | [`periodic`] | the tile energy under a coarse deformation, constraints, equilibrium, stress |
 //! | [`fit`] | yarn-parameter estimation (seed 002 §7): rest-shape estimation, the objective of Eq. 11, particle swarm then COBYLA, resumable journal |
-//! | [`reference`] | our database of a published tile against the published table; per-term forces on the file geometry |
+//! | [`reference`](mod@reference) | our database of a published tile against the published table; per-term forces on the file geometry |
 //! | [`patterns`] | procedural pattern library: tile builder from yarn polylines, knit and weave guesses, relaxation |
 //!
 //! Bending is single curvature along either tile axis (the tile rolled onto a cylinder,

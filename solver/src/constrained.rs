@@ -44,20 +44,20 @@
 //! constraint rows; its cost grows with `m` through the `m` columns of `Y`.
 //!
 //! *Dense rows, measured.* The zero-mean and twist-drift rows of a periodic tile couple all its
-//! vertices, so its factor is dense or nearly so (the `yarn-fit` seed tile of 2026-11-29, the
+//! vertices, so its factor is dense or nearly so (the `yarn-fit` seed tile, the
 //! rectangular 2 × 2 repeat: 64 vertices, 256 unknowns, 7 rows, about 43 000 stored values).
 //! faer's own choice factorized the small tiles' `K` column by column (simplicial: its flop
 //! count per stored entry stays under its threshold), which cost the `yarn-fit` objective
 //! about 40 % of its time in the factorization and the solves (`perf` of `cargo bench -p bench
-//! --bench yarn_objective -- acrylic-yarn-seed --points 12`, 32 vertices, release, 2 threads,
-//! 2026-11-30). So `K` is always factorized supernodally (dense blocks,
-//! [`crate::linalg::Factorization::Supernodal`]), and the `m` columns of `Y` are one blocked
+//! --bench yarn_objective -- acrylic-yarn-seed --points 12`, 32 vertices, release, 2 threads).
+//! So `K` is always factorized supernodally (dense blocks,
+//! `linalg::Factorization::Supernodal`), and the `m` columns of `Y` are one blocked
 //! solve: a Newton iteration took 1.530 → 1.299 ms there (476 iterations per evaluation
 //! before and after), and supernodal alone 0.864 → 0.808 ms on the 16-vertex stockinette and
 //! 1.811 → 1.508 ms on the 32-vertex rib (same bench, 12 points each, same hour). Tiles of
 //! about 100 vertices and more were supernodal already. With the rows replaced by
 //! single-entry pins (a sparse `K`, a different problem, as a timing control) a Newton
-//! iteration on the 64-vertex tile took 2.0 ms against 2.2 ms (simplicial, 2026-11-29), so
+//! iteration on the 64-vertex tile took 2.0 ms against 2.2 ms (simplicial), so
 //! the rows themselves cost little. A Woodbury treatment of the dense rows (`K` factorized
 //! without their `ρĉĉᵀ`, with `ρeeᵀ` at one pinned column each, corrected by a rank-2k
 //! capacitance whose inertia decides definiteness, falling back to `K` where the pinned

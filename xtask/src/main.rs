@@ -23,7 +23,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// Run figure generators into reports/<name>/ and regenerate reports/README.md.
+    /// Run figure generators into reports/NAME/ and regenerate reports/README.md.
     ReproduceFigures {
         /// Coarse sweeps: every figure in seconds.
         #[arg(long)]
@@ -31,7 +31,7 @@ enum Cmd {
         /// Only these figures (comma-separated or repeated).
         #[arg(long, value_name = "NAME", value_delimiter = ',')]
         only: Vec<String>,
-        /// Rewrite reports/reference/<name>.csv for guarded figures. Implies
+        /// Rewrite reports/reference/NAME.csv for guarded figures. Implies
         /// --quick: the reference-curve test recomputes guarded figures in
         /// quick mode, so the references must be quick-mode data.
         #[arg(long)]

@@ -97,7 +97,7 @@ fn write_unchecked<T: Copy + Into<f64>>(
     Ok(())
 }
 
-/// The `.bcc` bytes of `lines` (see [`write`]).
+/// The `.bcc` bytes of `lines` (see [`write()`]).
 pub fn to_bytes<T: Copy + Into<f64>>(
     lines: &Polylines<'_, T>,
     header: &BccHeader<'_>,

@@ -44,7 +44,7 @@ pub fn write_indexed(
     Ok(())
 }
 
-/// The OBJ text of `lines` (see [`write`]).
+/// The OBJ text of `lines` (see [`write()`]).
 pub fn to_string<T: Copy + Into<f64>>(lines: &Polylines<'_, T>, comment: &str) -> String {
     let mut out = Vec::new();
     write(&mut out, lines, comment).expect("writing to a Vec cannot fail");

@@ -55,7 +55,7 @@ pub fn write<T: Copy + Into<f64>>(
     Ok(())
 }
 
-/// The PLY text of `lines` (see [`write`]).
+/// The PLY text of `lines` (see [`write()`]).
 pub fn to_string<T: Copy + Into<f64>>(lines: &Polylines<'_, T>, comment: &str) -> String {
     let mut out = Vec::new();
     write(&mut out, lines, comment).expect("writing to a Vec cannot fail");

@@ -135,7 +135,7 @@ fn write_unchecked<T: Copy + Into<f64>>(
     Ok(())
 }
 
-/// The `.usda` text of `lines` (see [`write`]).
+/// The `.usda` text of `lines` (see [`write()`]).
 pub fn to_string<T: Copy + Into<f64>>(
     lines: &Polylines<'_, T>,
     options: &UsdOptions<'_>,
@@ -236,7 +236,7 @@ struct MeshTrack {
 /// carry `points` and `extent` as time samples, one per frame, so that Blender, Houdini, usdview
 /// or Omniverse load the animation as one file.
 ///
-/// Written as the single-frame layer of [`write`] (prims `/Yarns`, `/Mesh0`, …), except:
+/// Written as the single-frame layer of [`write()`] (prims `/Yarns`, `/Mesh0`, …), except:
 /// ```text
 /// #usda 1.0
 /// (

@@ -85,8 +85,8 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     // 4. The yarn fit.
     let base = YarnModel::from_material(&known).map_err(anyhow::Error::msg)?;
     let (geometry, space) = super::yarn_fit::geometry_and_space(pattern, &base, known.radius)?;
-    // yarn-fit's settings as they were before its comfort-half samples and second swarm
-    // (a5c8811). Full runs, 2026-11-30, one per row (the recovered k1, onset and g; the
+    // yarn-fit's settings as they were before its comfort-half samples and second swarm.
+    // Full runs, one per row (the recovered k1, onset and g; the
     // comfort-range error on the fit's own samples, with how many lie in the comfort range, and
     // on the comfort-half grid of 20 samples per direction, 18 of them in it; the
     // re-simulation's error in the paper's metric):
@@ -109,7 +109,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     // targets beyond the comfort range: the power-range error is 1200–1600 % in every row.
     //
     // The table was measured before the weft and warp compression nodes became one Newton
-    // solve with the compression as a DOF (2fb7d16). In its committed run the figure's fit
+    // solve with the compression as a DOF. In its committed run the figure's fit
     // (even, 1) moved to k1 200 N (upper bound) and onset 0.150 (upper bound), with 112 + 61
     // evaluations: 4.8 % on its own samples (the same one weft sample) and 25.9 % on the
     // comfort-half grid, re-simulated as before (weft 344 %, warp 96 %). The other rows were

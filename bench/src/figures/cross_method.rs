@@ -52,15 +52,14 @@
 //!   on each other through their contacts (stated, not tested). The garter's warp pull is
 //!   10× softer at 30 %. Clamped, the rib pushes on the clamps (its legs are bent, and seed
 //!   000's bending is at rest straight), so its zero-force start lengthens it (tested on the
-//!   quick swatch: 1.43×); in the full run at 0591902 its warp swatch reached zero force at
+//!   quick swatch: 1.43×); in an earlier full run its warp swatch reached zero force at
 //!   61.1 mm against 41.6 mm in seed 000's layout, spent the added yarn before the pull
 //!   began, and was 640× stiffer than the tile at 30 %.
 //!   Two of the six tile's-loop runs cannot start (key numbers "has no curve"): the
 //!   stockinette's warp, whose static solve fails while the clamp moves to zero force, and,
-//!   since the full run at 2fb7d16, the rib's warp, whose clamp force keeps its sign over the
-//!   200 static solves of that search (−0.064 N at the settled length). The earlier run was
-//!   at 0591902; the persistent swatch's yarn mapping changed since (db4fc67 among 48
-//!   commits to the simulators), and the full run was not repeated in between.
+//!   the rib's warp, whose clamp force keeps its sign over the 200 static solves of that
+//!   search (−0.064 N at the settled length). The persistent swatch's yarn mapping changed
+//!   between the earlier run and this one, which was not repeated in between.
 //! - *Plain weave: the persistent swatch is 66× stiffer at 10 %* and does not contract: its
 //!   yarns run straight between persistent crossings, so `σ = ψ'(s)/d` from the first strain
 //!   (tested to 0.1 %), while the tile's crimp interchange takes the first 20 % of stretch. A

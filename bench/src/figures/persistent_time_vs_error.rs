@@ -37,7 +37,7 @@
 //! mapping often runs out of re-solves; at full length (family 8) segments invert and the
 //! error is 5e4–3e10× the peak pull at every step. On the hat the damping costs accuracy at
 //! 1–2 ms (one backtracked step; `StepSettings::linearized_implicit_euler`). CG at 1e-2
-//! (families 10 and 11, run 2026-11-29) lowered the rib's error at 0.25 / 0.5 ms (15 / 15 %
+//! (families 10 and 11) lowered the rib's error at 0.25 / 0.5 ms (15 / 15 %
 //! against 20 / 28 % at 1e-3, in 0.84× / 0.83× the time) but raised the hat's by 1.2–1.5× at
 //! 0.5–1 ms (1.01 / 2.74 R against 0.83 / 1.79 R; 4.18 against 4.14 R at 2 ms), so the
 //! tolerance that halves the sweater's CG iterations is not free of error on a garment.

@@ -180,7 +180,7 @@ pub struct FitSettings {
     ///
     /// The differences are about half of the local phase's evaluations. Differencing them
     /// less often, with Broyden's update carrying the columns in between (throw-away code,
-    /// `cargo bench -p bench --bench yarn_fit`, release, 2 cores, 2026-11-29; yarn fit time,
+    /// `cargo bench -p bench --bench yarn_fit`, release, 2 cores; yarn fit time,
     /// final `g`, comfort-range error):
     ///
     /// | differenced at | acrylic stockinette | babyredo stockinette | acrylic garter |
@@ -838,12 +838,12 @@ fn lm_search(
         scale: [1.0; N],
     };
     // The local phase ends on the step tolerance. Its tail is long: on the development fabric
-    // (yarn-fit's settings, a throw-away trace of every evaluation, 2026-11-29) the winning
+    // (yarn-fit's settings, a throw-away trace of every evaluation) the winning
     // start spent its last 16 of 64 evaluations lowering g from 0.073147 to 0.073090 (8e-4
     // relative), the last 6 of them rejections while the damping grew, and another start crept
     // from 0.0909 to 0.0850 over 40. A stop on the decrease over several accepted steps (this
     // `cost_rtol` tests one step) or after a few rejections in a row would not be safe: traced
-    // the same way (2026-11-29), the babyredo stockinette's winning start went from g 0.080415
+    // the same way, the babyredo stockinette's winning start went from g 0.080415
     // to 0.080413 in 7 iterations, 6 of them rejections, then fell to 0.075507 (6 % lower).
     // A stop on one accepted step's decrease at 1e-4 (that step's: 3e-5), or after 4
     // rejections in a row, would have ended it at 0.0804; one on the decrease over two accepted

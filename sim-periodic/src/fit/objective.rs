@@ -55,9 +55,9 @@
 //! shared hand-knits were stretched far past it: of a direction's 20 evenly spaced samples,
 //! besides the one at `s = 0`, 2 to 19 lie in the comfort range (median 5.5 over the 24
 //! curves), and each power-range term is a relative error of order one (the weight
-//! `v_comfort / v̂` cancels the normalization there). At the eight `yarn-fit` fits of 565c3a9
-//! the comfort-range terms made up 7–42 % of `g` (median 11.5 %); the rest, mostly
-//! power-range compression, is what the fits traded the comfort range for.
+//! `v_comfort / v̂` cancels the normalization there). So the comfort-range terms make up a
+//! small share of `g` in the even layout's fits (measured in `reports/yarn-fit/NOTES.md`);
+//! the rest, mostly power-range compression, is what such fits trade the comfort range for.
 //! [`SampleLayout::ComfortHalf`] puts half of the samples in the comfort range, so that the
 //! comfort range weighs as much as the power range however far the test went, with the
 //! paper's weights unchanged. Its samples at 0 and `s_max` are compression nodes'
@@ -65,137 +65,17 @@
 //! so a swarm evaluation solves one more sample per direction. The same layout also measures
 //! the comfort-range error with half the samples in the range instead of 2–19 of 20.
 //!
-//! **Cost.** An evaluation is about 80 equilibrium solves. On the acrylic seed at its fitted point
-//! (its rectangular 2 × 2 tile, used until the fits moved to the 32-vertex primitive tile, see *The
-//! seed's primitive tile* below: 64 vertices, 256 DOFs; the swarm's settings, 7 samples and 3 × 3
-//! nodes; release, one thread, 1.99 s in all): the rest shape and period 0.33 s; the 9 compression
-//! root-finds 52 solves and 290 Newton iterations (5.8 solves per node; the node at `s = 0` 4–6
-//! solves, for a compression of 10⁻⁶–10⁻³); the 21 stress samples 198 iterations, about 3.4 ms
-//! each. (Measured before the samples at nodes reused the nodes' equilibria, which took 11–17 % of
-//! the Newton iterations of a swarm evaluation away on every shared fabric: `cargo bench -p bench
-//! --bench yarn_objective -- all`, 10 points each, same points, e.g. the acrylic seed 651 → 574
-//! iterations and 1.72 → 1.55 s per solved evaluation.) The tolerances are not where the time goes
-//! (one run each, same point):
-//!
-//! | change | Newton iterations | time | `g` |
-//! |---|---|---|---|
-//! | none (gradient tolerances 1e-9, root tolerances 1e-6 relative, 1e-8 N/m) | 516 | 1.88–1.98 s | 0.041220399 |
-//! | Newton gradient tolerances 1e-7 | 483 | 1.85 s | 0.041220404 |
-//! | Newton gradient tolerances 1e-6 | 460 | 1.79 s | 0.041220228 |
-//! | root tolerances 1e-4, 1e-4 N/m | 494 | 1.87 s | 0.041224139 |
-//! | root tolerances 1e-3, 1e-3 N/m | 476 | 1.70 s | 0.041225450 |
-//! | root tolerances 1e-2, 1e-2 N/m | 443 | 1.62 s | 0.041551332 |
-//!
-//! Two exact savings were tried with throw-away code and left out. Stopping an evaluation
-//! once its partial sum exceeds the only value it is compared with (a swarm particle's own
-//! best; a Levenberg–Marquardt trial's current cost) left every fit bit-identical (the
-//! development fabric: `g` 0.07309023740530758, 183 local evaluations) but saved little:
-//! the development fit took 82.6 and 83.1 s against 93.1 and 90.8 s (interleaved) with the
-//! directions sharing one sum, which makes where an evaluation stops depend on their
-//! schedule; 86.6 and 87.7 s against 91.5 and 90.9 s with the directions in order, and with
-//! that variant its swarm phase 20.6 against 22.9 s and the seed's swarm phase 377 against
-//! 402 s (runs 40 minutes apart), within this machine's spread. Most rejected points are
-//! not far above their bound, and the compression nodes, half the work, come before any
-//! stretch term. Reusing a solve's constrained Newton
-//! solver (pattern, symbolic Cholesky, rank check) for the next found 8 of 200 solves
-//! reusable: the sliding rows' coefficients are `F n`, so the constraints change with every
-//! coarse map. The structural change: `σ_c = 0` is the stationarity of the energy in `c`
-//! (`∂E/∂c = −A σ_c` for the uniaxial map), so each node can be one Newton solve with `c` as
-//! one more degree of freedom instead of a root-find of about six. Along weft and warp the
-//! sliding rows' coefficients `F n` stay parallel to `n`, so the rows keep their null space
-//! and this is what the nodes do now ([`crate::periodic::solve_compressed`]); along the bias
-//! they would be bilinear in `c` and the positions, no longer the linear constraints the
-//! constrained Newton solver takes, so there the joint solve keeps the rows of its last pair
-//! round's compression and one solve at the compression found follows. Measured in *The
-//! compression as a DOF* below.
-//!
-//! **At the swarm's own points** the objective costs about twice what it costs at uniform
-//! points of the box. The acrylic seed's first 40 swarm evaluations (`yarn-fit`'s settings,
-//! release, one thread, 2026-11-29, throw-away instrumentation): 4.05 s and 996 Newton
-//! iterations per solved evaluation, against 2.25 s and 574 at `yarn_objective`'s uniform
-//! points. The uniform initial population of 16 took 2.66 s per evaluation, the 24 points
-//! after it 4.87 s; 24 of the 40 have a coordinate on a bound of the box, where the swarm
-//! clamps its particles. Of the first 70 evaluations' time, the
-//! compression root-finds took about 77 %, the stress samples 15 % and the rest shape 8 %.
-//! The costly solves are the first ones at a new node's stretch, warm-started from the node
-//! before: usually 8–20 Newton iterations, with a tail of 100–312, where the secant steps
-//! after them take 1–20. In the first 30 evaluations, 22 of 2870 solve rounds (the first
-//! round of a solve, with the pairs near its start) stalled or ran to 200 iterations before
-//! the restart with the wider pair set converged in 15–24; they took 17 % of the time. What
-//! was measured against that (the same 40 points, one thread, 161 s as it is, 5 of them
-//! failing):
-//!
-//! | change (throw-away) | Newton iterations per solved evaluation | time |
-//! |---|---|---|
-//! | none | 996 | 161 s |
-//! | first round limited to 80 iterations, then the restart | 974 | 154 s |
-//! | first round limited to 40 iterations | 1016 | 182 s |
-//! | pair margin 3 instead of 1.5 (uniform points, three fabrics) | 526–558 against 530–621 | 1.6–1.9× slower |
-//! | two compression nodes (the paper's) instead of three | 752 | 138 s, 6 failing |
-//! | target compression `ĉ(s)` as each node's first guess | 970 | 178 s |
-//! | a solve half-way (in `s` and `c`) before each node after the first | 999 (150 of them half-way) | 173 s, 4 failing |
-//!
-//! (The unchanged code, rerun an hour later without the instrumentation: 996 iterations,
-//! 173 s.) None was kept: the gains are within this machine's spread or bought with
-//! failures, and each moves every fit to another path. The ceiling of the structural change
-//! above was measured too: one solve at the root's compression from the same warm start
-//! takes 45 % of the root-find's Newton iterations (12 665 against 28 273 over those points'
-//! 354 root-finds), so a node solved in one Newton solve would cut an evaluation by at most
-//! about 40 %, not the 2× the seeds need to fit in 300 s. (All of this paragraph was
-//! measured on the seed's rectangular 2 × 2 tile.)
-//!
-//! **The seed's primitive tile.** The seed stitch repeats after one loop sideways and one
-//! course up, so its primitive tile holds two loops on a sheared lattice
-//! ([`crate::patterns::Pattern::Seed`]), half the vertices of the 2 × 2 tile the fits used
-//! before. At `yarn_objective`'s 10 fixed points (2 threads, 2026-11-29, both tiles in the
-//! same hour): acrylic seed 1.72 → 0.70 s per solved evaluation (574 → 474 Newton
-//! iterations, 2.99 → 1.47 ms each, failed evaluations 1 → 0), babyredo seed 1.65 → 0.75 s
-//! (612 → 524, 2.69 → 1.43 ms, 1 → 0). Whole fits, `yarn-fit`'s full run against the one
-//! before (99f8199, another session): acrylic seed 603 → 360 s (112 + 183 → 112 + 219
-//! evaluations, `g` 0.0393 → 0.0388, comfort-range error 5.2 → 4.8 %), babyredo seed
-//! 535 → 305 s (112 + 81 → 112 + 198, 0.248 → 0.0815, 18.5 → 13.0 %); the six other fabrics
-//! kept their fits bit for bit and took 2–13 % longer than in that run, the machine's drift.
-//!
-//! **Where a Newton iteration goes** (`perf` of `cargo bench -p bench --bench yarn_objective --
-//! acrylic-yarn-seed --points 12`, release, 2 threads, 2026-11-30). Until 345f92d about 40 % of
-//! the time went to the sparse Cholesky factorization and its solves, which faer ran column by
-//! column on these small, nearly dense factors; they are supernodal now
-//! ([`solver::constrained`]'s *Dense rows, measured*), and the factorization and solves took 22 %.
-//! Then: assembling the Hessian 21 % (contact stencils 13 %, twist 9 %, bending 6 %, children
-//! included), the line search's energies 7 %, each solve's setup (pattern, ordering, symbolic
-//! analysis, rank check) about 8 %. A Newton iteration went 1.530 → 1.253 ms (with the contact
-//! Hessian accumulated as rank-one terms, [`rod::contact::EdgeContact`]). On the acrylic rib (a
-//! later session the same day, on a machine 1.6× faster) the setup took 15 % (building the
-//! Hessian's pattern 8 %, the KKT matrix's 6 %, much of it sorting every stencil's coordinates
-//! into a pattern of 128 columns); `solver` now marks such small, crowded patterns in a dense
-//! table, and the setup took 10 % (`--points 30`). The patterns are the same, so every fit
-//! is the same bit for bit (the rib's: `g` 0.1741, 112 + 127 evaluations, yarn fit 197 → 192 s,
-//! one run each, within this machine's spread).
-//!
-//! **The compression as a DOF** (weft and warp nodes, above). At the swarm's settings and
-//! `yarn_objective`'s first 6 fixed points, each point evaluated both ways in turn (release, 2
-//! threads, 2026-11-30, throw-away probe): Newton iterations 3522 → 2639 on the babyredo rib,
-//! 3052 → 2101 on the acrylic rib (one point failing both ways), 1682 → 1176 on the babyredo
-//! stockinette; time 3.42 → 3.00 s, 3.51 → 3.08 s and 0.86 → 0.63 s. On 7 of the 17 points
-//! solved both ways `g` agreed to 4·10⁻⁷ relative (compressions within 7·10⁻⁸). On the other
-//! 10 the two searches ended on different zero-orthogonal-stress states somewhere along a
-//! curve (compressions up to 0.25 apart): 9 of them at `g` from 3 to 2800, far from any fit,
-//! where the tiles jam, and one at `g` 0.96 (6·10⁻³ relative). So the change moves most fits
-//! onto another path; the fits' own numbers are in `yarn-fit`'s and the benchmarks'.
-//!
-//! **The bias nodes too** (joint solve under frozen rows, then one solve at the compression
-//! found). `cargo bench -p bench --bench yarn_objective -- all --points 10` with the binaries
-//! before and after, interleaved (release, 2026-11-30): the same solved and failed counts on
-//! every fabric; Newton iterations per solved evaluation 14–22 % fewer (garters 338 → 270 and
-//! 424 → 360, ribs 402 → 346 and 398 → 343, seeds 351 → 274 and 351 → 280, stockinettes
-//! 182 → 148 and 183 → 142, acrylic → babyredo). On one thread the evaluations took 27.7–28.5 s
-//! against 25.2–25.3 s (three and two runs, −10 %); on two threads the run-to-run spread
-//! (18.2–22.3 s against 17.7–20.6 s, four runs each) hides it. A likely reason, not measured:
-//! this benchmark evaluates one point at a time and its three directions are its only
-//! parallelism, so on two cores its wall time follows the two directions that share a core
-//! rather than all the work, while the fit's swarm and local starts keep both cores busy with
-//! whole evaluations. No bias node needed the finishing root-find at
-//! these points; one bias joint solve failed and fell back to the root-find.
+//! **Cost.** An evaluation is about 80 equilibrium solves: the rest shape and period, the
+//! compression nodes and the stress samples; samples at compression nodes reuse the nodes'
+//! equilibria. Along weft and warp a node is one Newton solve with the compression `c` as one
+//! more degree of freedom ([`crate::periodic::solve_compressed`]): `σ_c = 0` is the
+//! stationarity of the energy in `c` (`∂E/∂c = −A σ_c` for the uniaxial map), and the sliding
+//! rows' coefficients `F n` stay parallel to `n`, so the rows keep their null space. Along the
+//! bias they would be bilinear in `c` and the positions, so the joint solve keeps the rows of
+//! its last pair round's compression and one solve at the compression found follows. The
+//! tolerances are not where the time goes; the first solves at a new node's stretch are. The
+//! measurements behind these choices, and the savings tried and left out, are in
+//! `reports/yarn-fit/NOTES.md`.
 
 use crate::coarse::Coarse;
 use crate::curves::{CurveSettings, directional_stress, uniaxial_curve_states};

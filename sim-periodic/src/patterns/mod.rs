@@ -73,8 +73,7 @@
 //! and leave only the copied no-sliding constraint forces (`tests/patterns.rs`, under stretch,
 //! shear and compression: agreement to 1e-12 relative), and a Newton iteration costs about half
 //! (the `yarn_objective` benchmark: 1.47 against 2.99 ms on the acrylic seed, 1.43 against 2.69 ms
-//! on the babyredo seed). Relaxed and solved on their own (measured once with throw-away code,
-//! 2026-11-29), the two tiles differ by where the no-sliding constraint pins each yarn (the start
+//! on the babyredo seed). Relaxed and solved on their own (measured once with throw-away code), the two tiles differ by where the no-sliding constraint pins each yarn (the start
 //! of its first edge across the tile boundary, at a different place of the loop in each course of
 //! the rectangular tile; sliding is not an exact symmetry of a discrete yarn): at 16 vertices per
 //! loop, Ψ by 0.2 % at rest and 5.6 % at 20 % stretch along x. The loop above the last course is
