@@ -102,7 +102,7 @@ impl FigureContext {
 
 /// Values shared between the figures of one run, one per type: a figure asks for its
 /// cache type with [`FigureCache::get`] and memoizes inside it (e.g.
-/// [`crate::figures::deform_real_db::RealCache`]).
+/// [`crate::studies::deform_databases::RealCache`]).
 #[derive(Default)]
 pub struct FigureCache {
     entries: Mutex<Vec<Arc<dyn Any + Send + Sync>>>,

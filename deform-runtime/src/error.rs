@@ -39,7 +39,7 @@ pub enum DeformError {
     /// The GPU back end is unavailable or failed.
     #[cfg(feature = "gpu")]
     #[error(transparent)]
-    Gpu(#[from] Box<crate::gpu::GpuError>),
+    Gpu(#[from] Box<GpuError>),
     /// Output (geometry, image) could not be written.
     #[error(transparent)]
     Output(yarn_output::OutputError),
@@ -91,3 +91,41 @@ pub enum DeformError {
 
 /// Shorthand for results of this crate.
 pub type Result<T, E = DeformError> = std::result::Result<T, E>;
+
+/// Why the GPU back end ([`crate::gpu`]) is unavailable or failed.
+#[cfg(feature = "gpu")]
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter was found.
+    #[error(
+        "no GPU adapter found (wgpu: {0}); install a Vulkan driver such as Mesa's lavapipe (mesa-vulkan-drivers) or use the CPU back end"
+    )]
+    NoAdapter(String),
+    /// The device could not be created.
+    #[error("GPU device request failed on {adapter}: {message}")]
+    Device {
+        /// Adapter description.
+        adapter: String,
+        /// wgpu's message.
+        message: String,
+    },
+    /// A buffer is larger than the device allows.
+    #[error("GPU buffer {name} needs {bytes} bytes, the device allows {limit}")]
+    TooLarge {
+        /// Buffer name.
+        name: &'static str,
+        /// Bytes needed.
+        bytes: u64,
+        /// Device limit.
+        limit: u64,
+    },
+    /// Mapping or polling failed.
+    #[error("GPU read-back failed: {0}")]
+    Readback(String),
+    /// Invalid [`crate::gpu::Chunking`].
+    #[error("invalid GPU chunking: {0}")]
+    Chunking(String),
+    /// The CPU side failed (mesh stage).
+    #[error(transparent)]
+    Deform(#[from] DeformError),
+}

@@ -106,42 +106,7 @@ struct Chunk {
     groups: (u32, u32),
 }
 
-/// Why the GPU back end is unavailable or failed.
-#[derive(Debug, thiserror::Error)]
-pub enum GpuError {
-    /// No adapter was found.
-    #[error(
-        "no GPU adapter found (wgpu: {0}); install a Vulkan driver such as Mesa's lavapipe (mesa-vulkan-drivers) or use the CPU back end"
-    )]
-    NoAdapter(String),
-    /// The device could not be created.
-    #[error("GPU device request failed on {adapter}: {message}")]
-    Device {
-        /// Adapter description.
-        adapter: String,
-        /// wgpu's message.
-        message: String,
-    },
-    /// A buffer is larger than the device allows.
-    #[error("GPU buffer {name} needs {bytes} bytes, the device allows {limit}")]
-    TooLarge {
-        /// Buffer name.
-        name: &'static str,
-        /// Bytes needed.
-        bytes: u64,
-        /// Device limit.
-        limit: u64,
-    },
-    /// Mapping or polling failed.
-    #[error("GPU read-back failed: {0}")]
-    Readback(String),
-    /// Invalid [`Chunking`].
-    #[error("invalid GPU chunking: {0}")]
-    Chunking(String),
-    /// The CPU side failed (mesh stage).
-    #[error(transparent)]
-    Deform(#[from] crate::error::DeformError),
-}
+pub use crate::error::GpuError;
 
 /// Minimal executor for wgpu's futures (they complete after `device.poll`).
 fn block_on<F: Future>(future: F) -> F::Output {

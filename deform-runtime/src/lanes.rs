@@ -34,10 +34,10 @@ use pulp::Simd;
 use pulp::bytemuck;
 
 use crate::database::RuntimeDatabase;
-use crate::deform::each_vertex;
 use crate::embed::Embedding;
 use crate::kernel::{KernelInputs, VertexCounters, deform_vertex};
 use crate::mesh::FacePoly;
+use crate::real::Real;
 
 /// The most lanes of one batch on any instruction set `pulp` dispatches to.
 const MAX_LANES: usize = 16;
@@ -565,4 +565,43 @@ fn world_map<S: Simd, F: Faces>(
     let rest_twist = gather(simd, |l| input.twists[b.tile_vertices[l] as usize]);
     x[3] = add(simd, rest_twist, dq[3]);
     x
+}
+
+/// Runs `vertex(triangle, du, dv, height, pattern vertex, counters)` on the chunk-local
+/// vertices `from..` of the chunk `out` that starts at embedding vertex `start`, one by one,
+/// and stores each result with [`store`].
+#[inline(always)]
+pub(crate) fn each_vertex<T: Real>(
+    e: &Embedding<T>,
+    start: usize,
+    from: usize,
+    out: &mut [&mut [T]; 4],
+    counters: &mut VertexCounters,
+    vertex: impl Fn(u32, T, T, T, u32, &mut VertexCounters) -> ([T; 3], T),
+) {
+    for j in from..out[0].len() {
+        let k = start + j;
+        let (f, du, dv) = (e.triangle[k], e.du[k], e.dv[k]);
+        let mapped = vertex(f, du, dv, e.height[k], e.tile_vertex[k], counters);
+        store(out, j, mapped, counters);
+    }
+}
+
+/// Writes vertex `j`'s mapped position and twist into the chunk `out` (`[x, y, z, twist]`), or
+/// counts it as non-finite (leaving the previous output).
+#[inline(always)]
+pub(crate) fn store<T: Real>(
+    out: &mut [&mut [T]; 4],
+    j: usize,
+    (x, t): ([T; 3], T),
+    counters: &mut VertexCounters,
+) {
+    if x.iter().all(|c| c.is_finite()) && t.is_finite() {
+        out[0][j] = x[0];
+        out[1][j] = x[1];
+        out[2][j] = x[2];
+        out[3][j] = t;
+    } else {
+        counters.nonfinite_output += 1;
+    }
 }

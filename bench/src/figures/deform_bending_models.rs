@@ -3,7 +3,7 @@
 //! from bending-direction databases ([`deform_runtime::bending`]).
 //!
 //! **Bending databases.** Real bending-direction databases from `sim-periodic` bent-tile
-//! solves, built by [`super::deform_bending_db`] (memoized per process, shared with
+//! solves, built by [`crate::studies::deform_databases`] (memoized per process, shared with
 //! `deform-time-vs-error`).
 //!
 //! **Comparison.** A sheet (zero in-plane strain) rolled onto cylinders of curvature κ along
@@ -23,9 +23,9 @@ use deform_runtime::{DeformOptions, Deformer, synthetic};
 use yarn_pattern::madypg::Database;
 use yarn_pattern::tile::Tile;
 
-use super::deform_bending_db::{KAPPA_MAX, RealBending, bending, rolled};
-use super::deform_real_db as real;
 use crate::plot::{LineChart, Series, column_points, save_side_by_side};
+use crate::studies::deform_databases as real;
+use crate::studies::deform_databases::{KAPPA_MAX, RealBending, bending, rolled};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
 
 /// Registry entry.

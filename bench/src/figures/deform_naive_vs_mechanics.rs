@@ -11,9 +11,9 @@ use deform_runtime::pipeline::{SetupOptions, build};
 use deform_runtime::{DeformOptions, Deformer, Real, synthetic};
 use yarn_output::render::{Camera, Framing, RenderOptions, Rendering};
 
-use super::deform_real_db as real;
 use crate::plot::{LineChart, Series, column_points, save_images, save_side_by_side};
 use crate::studies::deform::{rms_out_of_plane, tubes};
+use crate::studies::deform_databases as real;
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
 
 /// Registry entry.

@@ -6,8 +6,8 @@
 use deform_runtime::pipeline::{SetupOptions, build};
 use deform_runtime::{DeformOptions, RuntimeDatabase, synthetic};
 
-use super::deform_real_db as real;
 use crate::plot::{LineChart, Series, save_side_by_side};
+use crate::studies::deform_databases as real;
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
 
 /// Registry entry.

@@ -11,7 +11,7 @@
 //! occurs, at a principal direction between the two bending-database axes. (Curvatures of one
 //! sign halve the bent-tile solves, which keeps quick mode short.) The bending
 //! databases are built once at the densest in-plane grid ([`bending`]) and restricted to the
-//! coarser, nested grids ([`super::deform_bending_db::RealBending::restrict`]).
+//! coarser, nested grids ([`crate::studies::deform_databases::RealBending::restrict`]).
 
 use std::sync::Arc;
 
@@ -22,9 +22,9 @@ use deform_runtime::{DeformOptions, Deformer, FrameStats, Real, synthetic};
 use yarn_pattern::madypg::Database;
 use yarn_pattern::tile::Tile;
 
-use super::deform_bending_db::{KAPPA_MAX, RealBending, bending, waved};
-use super::deform_real_db as real;
 use crate::plot::{LineChart, Series};
+use crate::studies::deform_databases as real;
+use crate::studies::deform_databases::{KAPPA_MAX, RealBending, bending, waved};
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
 
 /// Registry entry.
@@ -419,7 +419,7 @@ fn config(
         "pattern": real::PATTERN,
         "database": "real: sim_periodic::database::generate on the relaxed tile (memoized per process)",
         "bending_databases": format!(
-            "real: deform_bending_db::bending at {densest_n}³ (sim-periodic bent-tile solves along x and y), restricted to the coarser nested grids; κ = 0 is each grid's in-plane database"
+            "real: deform_databases::bending at {densest_n}³ (sim-periodic bent-tile solves along x and y), restricted to the coarser nested grids; κ = 0 is each grid's in-plane database"
         ),
         "bending_kappas_per_m": kappas,
         "axes": {"sx": real::SX, "sa": real::SA, "sy": real::SY},
@@ -428,7 +428,7 @@ fn config(
         "reference": format!("{densest_n}³ with the explicit bending model in f64"),
         "sheet_cells": sheet.cells, "sheet_quads": sheet.quads, "yarn_vertices": n_yarn,
         "deformation": format!(
-            "deform_real_db::test_field, bent isometrically with curvature κ = ½·{KAPPA_MAX}·(1 + sin(2π a / λ)) 1/m along {:.0}° from x, λ = {WAVE_PERIODS} periods along x (deform_bending_db::waved)",
+            "deform_databases::test_field, bent isometrically with curvature κ = ½·{KAPPA_MAX}·(1 + sin(2π a / λ)) 1/m along {:.0}° from x, λ = {WAVE_PERIODS} periods along x (deform_databases::waved)",
             WAVE_ANGLE.to_degrees()
         ),
         "csv_bending_model": "0 naive embedding, 1 linearized, 2 explicit (samples_per_axis 0: naive)",

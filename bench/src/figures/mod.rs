@@ -5,11 +5,9 @@
 
 pub mod closed_loop;
 pub mod cross_method;
-pub mod deform_bending_db;
 pub mod deform_bending_models;
 pub mod deform_compression_clamping;
 pub mod deform_naive_vs_mechanics;
-pub mod deform_real_db;
 pub mod deform_sampling_density;
 pub mod deform_throughput;
 pub mod deform_time_vs_error;

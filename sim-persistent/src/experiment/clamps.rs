@@ -8,7 +8,7 @@ use rod::geometry::V3;
 
 use super::swatch::{centroid, positions};
 use crate::integrator::Simulator;
-use crate::scene::Fabric;
+use crate::topology::Fabric;
 use crate::topology::{Construction, knit_boundary_nodes, knit_column_nodes};
 
 /// The node grid of a swatch, as far as clamps need it.

@@ -46,7 +46,7 @@ use super::clamps::{ClampSet, Grid};
 use super::swatch::{LOOP_WIDTH, SwatchSettings, centroid, positions, run_steps};
 use crate::integrator::Simulator;
 use crate::layout::{Layout, LayoutParams};
-use crate::scene::Fabric;
+use crate::topology::Fabric;
 use crate::topology::{Construction, knit_boundary_nodes, knit_column_nodes};
 
 /// Most halvings of a load step whose static solve fails.

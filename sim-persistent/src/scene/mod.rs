@@ -122,8 +122,9 @@
 
 mod specs;
 
+pub use crate::topology::Fabric;
 pub use specs::{
-    ClampSpec, CrossingShearSpec, DampingSpec, Fabric, ForcesSpec, KnitGaugeSpec, ObstacleSpec,
+    ClampSpec, CrossingShearSpec, DampingSpec, ForcesSpec, KnitGaugeSpec, ObstacleSpec,
     PatternSpec, SceneCrossingShear, YarnSpec,
 };
 
@@ -142,6 +143,12 @@ use rod::geometry::V3;
 use serde::Deserialize;
 use specs::de_pattern;
 use std::path::{Path, PathBuf};
+
+/// A `[pattern]` whose chart or weave has no topology, as a scene error at the `[pattern]`
+/// header.
+fn pattern_error(e: crate::topology::TopologyError) -> SceneError {
+    SceneError::Invalid(format!("[pattern] {e}"))
+}
 
 /// A scene that cannot be read or set up.
 #[derive(Debug, thiserror::Error)]
@@ -584,7 +591,7 @@ impl Scene {
             ..SwatchSettings::default()
         };
         let fabric = self.fabric()?;
-        let layout = self.layout_params(&fabric.topology()?)?;
+        let layout = self.layout_params(&fabric.topology().map_err(pattern_error)?)?;
         Ok(Some(UniaxialTest {
             fabric,
             pull,
@@ -622,7 +629,7 @@ impl Scene {
         }
         let fabric = self.fabric()?;
         let (params, _, alpha, beta) = self.yarn()?;
-        let topology = fabric.topology()?;
+        let topology = fabric.topology().map_err(pattern_error)?;
         let layout = Layout::new(&topology, &self.layout_params(&topology)?)?;
         let forces = self.force_set();
         let settings = StepSettings {

@@ -5,7 +5,7 @@ use super::SceneError;
 use crate::chart::Chart;
 use crate::experiment::clamps::{ClampSet, Grid};
 use crate::forces::ForceSet;
-use crate::topology::{Construction, Topology};
+use crate::topology::{Construction, Fabric};
 use crate::weave::WeavePattern;
 use rod::geometry::V3;
 use serde::Deserialize;
@@ -36,38 +36,6 @@ pub struct PatternSpec {
     pub twill: Option<[usize; 2]>,
     /// `[harness, step]` of a satin (builder `satin`; default `[5, 2]`).
     pub satin: Option<[usize; 2]>,
-}
-
-/// The fabric a `[pattern]` describes.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Fabric {
-    /// A knit from a stitch chart, knitted as the [`Construction`] says.
-    Knit(Chart, Construction),
-    /// A woven fabric ([`Topology::weave`]).
-    Weave {
-        /// The weave pattern.
-        pattern: WeavePattern,
-        /// Warp yarns.
-        warps: usize,
-        /// Weft yarns.
-        wefts: usize,
-    },
-}
-
-impl Fabric {
-    /// The topology of the fabric.
-    pub fn topology(&self) -> Result<Topology, SceneError> {
-        match self {
-            Fabric::Knit(chart, construction) => Topology::knit_with(chart, *construction)
-                .map_err(|e| SceneError::Invalid(format!("[pattern] {e}"))),
-            Fabric::Weave {
-                pattern,
-                warps,
-                wefts,
-            } => Topology::weave(*pattern, *warps, *wefts)
-                .map_err(|e| SceneError::Invalid(format!("[pattern] {e}"))),
-        }
-    }
 }
 
 impl PatternSpec {
@@ -171,7 +139,7 @@ impl PatternSpec {
                         warps,
                         wefts,
                     };
-                    fabric.topology()?;
+                    fabric.topology().map_err(super::pattern_error)?;
                     Ok(fabric)
                 }
                 other => Err(bad(format!(

@@ -678,3 +678,35 @@ impl Topology {
         }
     }
 }
+
+/// A fabric to build a [`Topology`] for: a knit from a stitch chart knitted as its
+/// [`Construction`] says, or a woven fabric. The `[pattern]` of a scene describes one
+/// ([`crate::scene::PatternSpec::fabric`]); the experiments take one.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Fabric {
+    /// A knit from a stitch chart, knitted as the [`Construction`] says.
+    Knit(Chart, Construction),
+    /// A woven fabric ([`Topology::weave`]).
+    Weave {
+        /// The weave pattern.
+        pattern: WeavePattern,
+        /// Warp yarns.
+        warps: usize,
+        /// Weft yarns.
+        wefts: usize,
+    },
+}
+
+impl Fabric {
+    /// The topology of the fabric.
+    pub fn topology(&self) -> Result<Topology, TopologyError> {
+        match self {
+            Fabric::Knit(chart, construction) => Topology::knit_with(chart, *construction),
+            Fabric::Weave {
+                pattern,
+                warps,
+                wefts,
+            } => Topology::weave(*pattern, *warps, *wefts),
+        }
+    }
+}
