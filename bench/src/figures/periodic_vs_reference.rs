@@ -77,19 +77,36 @@ fn variants(radius: f64) -> Vec<(&'static str, YarnModel)> {
                 m.bending *= 0.1;
             }),
         ),
+        (
+            "linear stretch 200 N, k_b / 100",
+            with(&|m| {
+                m.stretch = StretchLaw::Linear { k: 200.0 };
+                m.bending *= 0.01;
+            }),
+        ),
+        (
+            "linear stretch 2000 N, k_b / 100",
+            with(&|m| {
+                m.stretch = StretchLaw::Linear { k: 2000.0 };
+                m.bending *= 0.01;
+            }),
+        ),
     ]
 }
 
-/// Short names of [`variants`], in order, for the chart's axis.
-const SHORT: [&str; 8] = [
+/// Short names of [`variants`], in order, for the chart's axis (`b`: the bending stiffness's
+/// factor, `t`: the twist stiffness's, `L`: a linear stretch law of that stiffness in N).
+const SHORT: [&str; 10] = [
     "default",
-    "k_b/10",
-    "k_b/100",
-    "k_b/1e3",
-    "+k_t×10",
+    "b/10",
+    "b/100",
+    "b/1e3",
+    "b/100 t×10",
     "R₁×1.1",
     "k₁×0.1",
-    "linear",
+    "L200 b/10",
+    "L200 b/100",
+    "L2000 b/100",
 ];
 
 /// The index of the entry of `axis` closest to `value`.
@@ -283,17 +300,19 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         .map(|i| format!("{i} {}", SHORT[i]))
         .collect::<Vec<_>>()
         .join(", ");
-    let by_variant = LineChart::new("5³: pooled agreement per model variant")
-        .x_label(format!("variant ({index_label})"))
-        .y_label("correlation; RMS difference (R)")
-        .series(Series::markers(
-            "correlation",
-            pooled.iter().enumerate().map(|(i, p)| (i as f64, p.1)),
-        ))
-        .series(Series::triangles(
-            "RMS difference (R)",
-            pooled.iter().enumerate().map(|(i, p)| (i as f64, p.2)),
-        ));
+    let by_variant = LineChart::new(
+        "5³: pooled agreement per variant (b: k_b ×, t: k_t ×, L: linear stretch, N)",
+    )
+    .x_label(index_label)
+    .y_label("correlation; RMS difference (R)")
+    .series(Series::markers(
+        "correlation",
+        pooled.iter().enumerate().map(|(i, p)| (i as f64, p.1)),
+    ))
+    .series(Series::triangles(
+        "RMS difference (R)",
+        pooled.iter().enumerate().map(|(i, p)| (i as f64, p.2)),
+    ));
     save_grid(&[&corr, &rms, &by_variant], 3, 1.0, &ctx.out_dir, ctx.name)?;
 
     // The fields of the default model on the main table.

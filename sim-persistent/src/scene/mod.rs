@@ -43,12 +43,14 @@
 //! alpha = 10.0
 //! beta = 0.0
 //!
-//! [forces]             # which terms exist; all default to true but loop_contact
+//! [forces]             # which terms exist; all default to true but loop_contact and
+//!                      # yarn_contact
 //! gravity = false
 //! wrapping = true
 //! crossing_shear = true  # crossing shear with jamming (weaves only)
 //! loop_contact = false   # contact between adjacent loops (knits only); default false
 //! segment_floor = true   # floor on segments' material length (ours); default true
+//! yarn_contact = false   # yarn self-contact (crate::forces::yarn_contact); default false
 //!
 //! [crossing_shear]     # weaves; all optional (crate::forces::crossing_shear)
 //! stiffness = 2e-2     # k_x (N)

@@ -244,7 +244,7 @@ pub struct ForcesSpec {
     /// Floor on the material length of segments (default true,
     /// [`crate::forces::segment_floor`]).
     pub segment_floor: bool,
-    /// Yarn self-contact (default true, [`crate::forces::yarn_contact`]).
+    /// Yarn self-contact (default false, [`crate::forces::yarn_contact`]).
     pub yarn_contact: bool,
 }
 
