@@ -16,14 +16,26 @@ use crate::obj::ObjMesh;
 use crate::real::Real;
 
 /// Setup options.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SetupOptions {
-    /// UV units to metres (default 1 when built through the CLI).
+    /// UV units to metres (default 1: the mesh's UVs are in metres, as the CLI's default).
     pub uv_scale: f64,
     /// Precompute options.
     pub embed: EmbedOptions,
     /// Per-frame options.
     pub deform: DeformOptions,
+}
+
+impl Default for SetupOptions {
+    /// UVs in metres and the default embedding and per-frame options. (A derived default
+    /// would set `uv_scale` to 0, which [`build`] refuses.)
+    fn default() -> Self {
+        Self {
+            uv_scale: 1.0,
+            embed: EmbedOptions::default(),
+            deform: DeformOptions::default(),
+        }
+    }
 }
 
 /// Builds a deformer from in-memory inputs.
