@@ -43,28 +43,16 @@
 //! rows of a periodic tile couple all vertices), so the method suits few or short
 //! constraint rows; its cost grows with `m` through the `m` columns of `Y`.
 //!
-//! *Dense rows, measured.* The zero-mean and twist-drift rows of a periodic tile couple all its
-//! vertices, so its factor is dense or nearly so (the `yarn-fit` seed tile, the
-//! rectangular 2 × 2 repeat: 64 vertices, 256 unknowns, 7 rows, about 43 000 stored values).
-//! faer's own choice factorized the small tiles' `K` column by column (simplicial: its flop
-//! count per stored entry stays under its threshold), which cost the `yarn-fit` objective
-//! about 40 % of its time in the factorization and the solves (`perf` of `cargo bench -p bench
-//! --bench yarn_objective -- acrylic-yarn-seed --points 12`, 32 vertices, release, 2 threads).
-//! So `K` is always factorized supernodally (dense blocks,
-//! `linalg::Factorization::Supernodal`), and the `m` columns of `Y` are one blocked
-//! solve: a Newton iteration took 1.530 → 1.299 ms there (476 iterations per evaluation
-//! before and after), and supernodal alone 0.864 → 0.808 ms on the 16-vertex stockinette and
-//! 1.811 → 1.508 ms on the 32-vertex rib (same bench, 12 points each, same hour). Tiles of
-//! about 100 vertices and more were supernodal already. With the rows replaced by
-//! single-entry pins (a sparse `K`, a different problem, as a timing control) a Newton
-//! iteration on the 64-vertex tile took 2.0 ms against 2.2 ms (simplicial), so
-//! the rows themselves cost little. A Woodbury treatment of the dense rows (`K` factorized
-//! without their `ρĉĉᵀ`, with `ρeeᵀ` at one pinned column each, corrected by a rank-2k
-//! capacitance whose inertia decides definiteness, falling back to `K` where the pinned
-//! matrix failed) was exact on small tests but not kept: on that tile 17 % of the
-//! factorizations fell back, one refinement step had to correct up to 3·10⁴ times the first
-//! solve (cancellation in the pinned matrix's soft modes), and 5 instead of 2 of the 10
-//! evaluations failed.
+//! *Dense rows.* The zero-mean and twist-drift rows of a periodic tile couple all its
+//! vertices, so the factor of a small tile's `K` is dense or nearly so. faer's own choice
+//! would factorize such a `K` column by column (simplicial: its flop count per stored entry
+//! stays under its threshold), which on the fit's small tiles spent much of a Newton
+//! iteration in the factorization and the solves. So `K` is always factorized supernodally
+//! (dense blocks, `linalg::Factorization::Supernodal`), and the `m` columns of `Y` are one
+//! blocked solve. A Woodbury treatment of the dense rows (`K` factorized without their
+//! `ρĉĉᵀ`, corrected by a low-rank capacitance) was exact on small tests but not kept: it fell
+//! back often and lost accuracy to cancellation in the pinned matrix's soft modes. The
+//! measurements are in `reports/yarn-fit/NOTES.md`.
 //!
 //! **Convergence** uses the Lagrangian gradient `‖g + Cᵀλ‖∞ = ‖g + Ĉᵀλ̂‖∞` (zero exactly at a
 //! KKT point) in place of `‖g_f‖∞`, with the least-squares multipliers `λ̂ = −(ĈĈᵀ)⁻¹Ĉg` (the

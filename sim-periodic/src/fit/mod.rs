@@ -179,20 +179,9 @@ pub struct FitSettings {
     /// at the start (the swarm's choice). Default `true`.
     ///
     /// The differences are about half of the local phase's evaluations. Differencing them
-    /// less often, with Broyden's update carrying the columns in between (throw-away code,
-    /// `cargo bench -p bench --bench yarn_fit`, release, 2 cores; yarn fit time,
-    /// final `g`, comfort-range error):
-    ///
-    /// | differenced at | acrylic stockinette | babyredo stockinette | acrylic garter |
-    /// |---|---|---|---|
-    /// | every accepted point (this) | 86.6 s, 0.0731, 10.6 % | 88.8 s, 0.0755, 14.7 % | 215 s, 0.0884, 6.6 % (the committed run) |
-    /// | the start only | 63.9 s, 0.0768, 10.3 % | 69.9 s, 0.0697, 18.2 % | 159 s, 0.1063, 7.8 % |
-    /// | every 2nd accepted point | — | 60.0 s, 0.0648, 16.3 % | — |
-    /// | every 3rd accepted point | 76.1 s, 0.0694, 8.2 % | 98.4 s, 0.0692, 18.2 % | 199 s, 0.0980, 7.4 % |
-    ///
-    /// Faster by up to a third, but each variant moves the fits to other paths, `g` rose on
-    /// two of three fabrics with the start-only columns, and the comfort-range error moved
-    /// both ways by up to 3.5 points: not kept.
+    /// less often, with Broyden's update carrying the columns in between, was faster by up to
+    /// a third but moved the fits to other paths with no consistent gain, so it is not
+    /// offered (measured in `reports/yarn-fit/NOTES.md`).
     pub local_geometry: bool,
 }
 
