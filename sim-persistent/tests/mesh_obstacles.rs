@@ -508,30 +508,10 @@ fn scene_mesh_obstacles() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// Checks the USD cache `path` with Pixar's USD library
-/// ([`yarn_output::usda::check_with_usd`]). Where `python3` lacks the `usd-core` package the
-/// check is skipped with a message, unless `WORKBENCH_REQUIRE_USD` is set (CI sets it and
-/// installs the package).
-fn check_usd_cache(path: &std::path::Path, frames: usize, meshes: usize) {
-    if !yarn_output::usda::usd_available() {
-        assert!(
-            std::env::var_os("WORKBENCH_REQUIRE_USD").is_none(),
-            "WORKBENCH_REQUIRE_USD is set but python3 cannot import pxr (pip install usd-core)"
-        );
-        eprintln!(
-            "skipping the USD check of {}: no pxr module",
-            path.display()
-        );
-        return;
-    }
-    let report = yarn_output::usda::check_with_usd(path, frames, meshes).unwrap();
-    eprintln!("{report}");
-}
-
 /// Frames of a simulation with a mesh obstacle show it: the PNG has pixels of the obstacle's
 /// colour (shaded) and the USD file holds a `Mesh` prim with its triangles beside the yarns.
 /// The run's USD cache holds the yarns and the obstacle over three frames, and Pixar's USD
-/// library loads it as one animation ([`check_usd_cache`]).
+/// library loads it as one animation ([`yarn_output::usda::check_with_usd_if_available`]).
 #[test]
 fn frames_draw_mesh_obstacles() {
     use sim_persistent::output::{CACHE_FILE, Format, FrameWriter, OBSTACLE_COLOUR, OutputSpec};
@@ -556,7 +536,13 @@ fn frames_draw_mesh_obstacles() {
     }
     let cache = writer.finish().unwrap().expect("a cache was asked for");
     assert_eq!(cache, dir.join(CACHE_FILE));
-    check_usd_cache(&cache, 3, 1);
+    match yarn_output::usda::check_with_usd_if_available(&cache, 3, 1).unwrap() {
+        Some(report) => assert_eq!(report.lines().count(), 3, "{report}"),
+        None => eprintln!(
+            "skipping the USD check of {}: no pxr module",
+            cache.display()
+        ),
+    }
     let usda = std::fs::read_to_string(&paths[1]).unwrap();
     assert!(usda.contains("def Mesh \"Mesh0\""), "{}", &usda[..200]);
     let counts = usda

@@ -85,19 +85,7 @@ fn write_unchecked<T: Copy + Into<f64>>(
     lines: &Polylines<'_, T>,
     options: &UsdOptions<'_>,
 ) -> std::io::Result<()> {
-    let doc = options.comment.replace('\\', "\\\\").replace('"', "\\\"");
-    let up = match options.up {
-        UpAxis::Y => "Y",
-        UpAxis::Z => "Z",
-    };
-    writeln!(
-        w,
-        "#usda 1.0\n(\n    defaultPrim = \"Yarns\"\n    doc = \"{doc}\""
-    )?;
-    writeln!(w, "    metersPerUnit = 1\n    upAxis = \"{up}\"\n)\n")?;
-    writeln!(w, "def BasisCurves \"Yarns\"\n{{")?;
-    writeln!(w, "    uniform token type = \"linear\"")?;
-    writeln!(w, "    uniform token wrap = \"nonperiodic\"")?;
+    write_header(w, options.comment, options.up, None)?;
     let paths: Vec<Vec<usize>> = lines.edge_paths().map(|(_, p)| p).collect();
     let counts: Vec<String> = paths.iter().map(|p| p.len().to_string()).collect();
     writeln!(w, "    int[] curveVertexCounts = [{}]", counts.join(", "))?;
@@ -113,12 +101,7 @@ fn write_unchecked<T: Copy + Into<f64>>(
         options.radius,
     );
     writeln!(w, "    float3[] extent = [{}]", extent_text(lo, hi))?;
-    let width = (2.0 * options.radius) as f32;
-    writeln!(
-        w,
-        "    float[] widths = [{width}] (\n        interpolation = \"constant\"\n    )"
-    )?;
-    writeln!(w, "}}")?;
+    write_widths_and_close(w, options.radius)?;
     for (m, mesh) in options.meshes.iter().enumerate() {
         write_mesh_topology(w, m, mesh.triangles)?;
         write!(w, "    point3f[] points = [")?;
@@ -262,9 +245,9 @@ struct MeshTrack {
 /// Meshes keep the triangles of their first frame (a later frame with other triangles is an
 /// error); their points are time-sampled. Frames are streamed: each time-sampled attribute
 /// goes to a side file `<path>.<attr>.partial` as frames arrive, and [`Sequence::finish`]
-/// assembles the layer (written to `<path>.partial`, then renamed onto `path`), so memory does
-/// not grow with the number of frames and an interrupted run never leaves a truncated
-/// `path`.
+/// assembles the layer (written to `<path>.partial`, then renamed onto `path`): the points
+/// never accumulate in memory (only each frame's curve vertex counts and extents do), and an
+/// interrupted run never leaves a truncated `path`.
 #[derive(Debug)]
 pub struct Sequence {
     path: std::path::PathBuf,
@@ -397,22 +380,8 @@ impl Sequence {
 
     fn write_layer(self, w: &mut dyn Write) -> std::io::Result<()> {
         let o = &self.options;
-        let doc = o.comment.replace('\\', "\\\\").replace('"', "\\\"");
-        let up = match o.up {
-            UpAxis::Y => "Y",
-            UpAxis::Z => "Z",
-        };
-        let fps = o.frames_per_second;
-        writeln!(
-            w,
-            "#usda 1.0\n(\n    defaultPrim = \"Yarns\"\n    doc = \"{doc}\"\n    endTimeCode = {}\n    \
-             framesPerSecond = {fps}\n    metersPerUnit = 1\n    startTimeCode = 0\n    \
-             timeCodesPerSecond = {fps}\n    upAxis = \"{up}\"\n)\n",
-            self.counts.len() - 1
-        )?;
-        writeln!(w, "def BasisCurves \"Yarns\"\n{{")?;
-        writeln!(w, "    uniform token type = \"linear\"")?;
-        writeln!(w, "    uniform token wrap = \"nonperiodic\"")?;
+        let frames = (self.counts.len(), o.frames_per_second);
+        write_header(w, &o.comment, o.up, Some(frames))?;
         let list = |c: &[usize]| {
             c.iter()
                 .map(usize::to_string)
@@ -432,12 +401,9 @@ impl Sequence {
             }
             writeln!(w, "    }}")?;
         }
-        let width = (2.0 * o.radius) as f32;
+        let radius = o.radius;
         self.points.finish_into(w, "point3f[] points")?;
-        writeln!(
-            w,
-            "    float[] widths = [{width}] (\n        interpolation = \"constant\"\n    )\n}}"
-        )?;
+        write_widths_and_close(w, radius)?;
         for (m, mesh) in self.meshes.into_iter().flatten().enumerate() {
             write_mesh_topology(w, m, &mesh.triangles)?;
             mesh.points.finish_into(w, "point3f[] points")?;
@@ -511,6 +477,49 @@ fn extent_text(lo: [f32; 3], hi: [f32; 3]) -> String {
     )
 }
 
+/// The layer metadata and the opening of the `/Yarns` prim: `frames = Some((n, fps))` adds the
+/// time range `0 … n − 1` and the rate of a [`Sequence`].
+fn write_header(
+    w: &mut dyn Write,
+    comment: &str,
+    up: UpAxis,
+    frames: Option<(usize, f64)>,
+) -> std::io::Result<()> {
+    let doc = comment.replace('\\', "\\\\").replace('"', "\\\"");
+    let up = match up {
+        UpAxis::Y => "Y",
+        UpAxis::Z => "Z",
+    };
+    writeln!(
+        w,
+        "#usda 1.0\n(\n    defaultPrim = \"Yarns\"\n    doc = \"{doc}\""
+    )?;
+    if let Some((n, fps)) = frames {
+        writeln!(
+            w,
+            "    endTimeCode = {}\n    framesPerSecond = {fps}",
+            n - 1
+        )?;
+    }
+    writeln!(w, "    metersPerUnit = 1")?;
+    if let Some((_, fps)) = frames {
+        writeln!(w, "    startTimeCode = 0\n    timeCodesPerSecond = {fps}")?;
+    }
+    writeln!(w, "    upAxis = \"{up}\"\n)\n")?;
+    writeln!(w, "def BasisCurves \"Yarns\"\n{{")?;
+    writeln!(w, "    uniform token type = \"linear\"")?;
+    writeln!(w, "    uniform token wrap = \"nonperiodic\"")
+}
+
+/// The curves' constant width `2R`, and the end of the `/Yarns` prim.
+fn write_widths_and_close(w: &mut dyn Write, radius: f64) -> std::io::Result<()> {
+    let width = (2.0 * radius) as f32;
+    writeln!(
+        w,
+        "    float[] widths = [{width}] (\n        interpolation = \"constant\"\n    )\n}}"
+    )
+}
+
 /// Opens `def Mesh "Mesh<m>"` and writes its triangles.
 fn write_mesh_topology(w: &mut dyn Write, m: usize, triangles: &[[u32; 3]]) -> std::io::Result<()> {
     writeln!(w, "\ndef Mesh \"Mesh{m}\"\n{{")?;
@@ -538,6 +547,26 @@ pub fn usd_available() -> bool {
         .args(["-c", "import pxr"])
         .output()
         .is_ok_and(|o| o.status.success())
+}
+
+/// [`check_with_usd`] where Pixar's USD library is available: `Ok(None)` without it, unless the
+/// environment sets `WORKBENCH_REQUIRE_USD` (as CI does, with usd-core installed), which makes
+/// a missing library an error instead. For the tests of every writer of caches.
+pub fn check_with_usd_if_available(
+    path: &std::path::Path,
+    frames: usize,
+    meshes: usize,
+) -> Result<Option<String>> {
+    if usd_available() {
+        return check_with_usd(path, frames, meshes).map(Some);
+    }
+    if std::env::var_os("WORKBENCH_REQUIRE_USD").is_some() {
+        return Err(OutputError::Invalid(
+            "WORKBENCH_REQUIRE_USD is set but python3 cannot import pxr (pip install usd-core)"
+                .into(),
+        ));
+    }
+    Ok(None)
 }
 
 /// Opens the cache `path` with Pixar's USD library, as a user's tool would load it, and checks

@@ -116,6 +116,16 @@ impl Database {
         Ok(out)
     }
 
+    /// The positions (m) of sample `[isx, isa, isy]`, per vertex, with the sample's mean
+    /// translation removed: the field the metric compares. Panics if the index is off the axes.
+    pub fn translation_free(&self, index: [usize; 3]) -> Vec<[f64; 3]> {
+        let [isx, isa, isy] = index;
+        let rows: Vec<[f64; 4]> = (0..self.n_vertices)
+            .map(|v| self.data[self.index(v, isx, isa, isy)].map(f64::from))
+            .collect();
+        without_mean(&rows)
+    }
+
     /// How this table agrees with `reference`, a table of the same tile on the same axes; see
     /// the [module docs](self) for the metric.
     pub fn agreement(&self, reference: &Database) -> Result<Agreement, AgreementError> {
@@ -170,6 +180,19 @@ impl Database {
     }
 }
 
+/// The positions of a sample's rows `[x, y, z, θ]` with their mean removed.
+fn without_mean(rows: &[[f64; 4]]) -> Vec<[f64; 3]> {
+    let mut m = [0.0; 3];
+    for row in rows {
+        for c in 0..3 {
+            m[c] += row[c] / rows.len() as f64;
+        }
+    }
+    rows.iter()
+        .map(|row| std::array::from_fn(|c| row[c] - m[c]))
+        .collect()
+}
+
 /// Sums of products of two translation-free fields, over vertices (and samples when pooled).
 #[derive(Clone, Copy, Debug, Default)]
 struct Sums {
@@ -183,23 +206,14 @@ struct Sums {
 
 impl Sums {
     fn of(a: &[[f64; 4]], b: &[[f64; 4]]) -> Self {
-        let mean = |f: &[[f64; 4]]| {
-            let mut m = [0.0; 3];
-            for row in f {
-                for c in 0..3 {
-                    m[c] += row[c] / f.len() as f64;
-                }
-            }
-            m
-        };
-        let (ma, mb) = (mean(a), mean(b));
+        let (fa, fb) = (without_mean(a), without_mean(b));
         let mut s = Sums {
             count: a.len() as f64,
             ..Sums::default()
         };
-        for (p, q) in a.iter().zip(b) {
+        for (((p, q), x), y) in a.iter().zip(b).zip(&fa).zip(&fb) {
             for c in 0..3 {
-                let (x, y) = (p[c] - ma[c], q[c] - mb[c]);
+                let (x, y) = (x[c], y[c]);
                 s.ab += x * y;
                 s.aa += x * x;
                 s.bb += y * y;
@@ -268,6 +282,16 @@ mod tests {
         assert!((m.correlation - 1.0).abs() < 1e-6, "{}", m.correlation);
         assert!(m.rms_difference < 1e-9, "{}", m.rms_difference);
         assert!((m.rms_twist_difference - 0.05).abs() < 1e-6);
+        // The compared fields: zero mean, and the same for the translated table.
+        let (fa, fm) = (
+            a.translation_free([0, 0, 0]),
+            moved.translation_free([0, 0, 0]),
+        );
+        let mean_x: f64 = fa.iter().map(|p| p[0]).sum::<f64>() / fa.len() as f64;
+        assert!(mean_x.abs() < 1e-12 && fa.iter().any(|p| p[0].abs() > 1e-4));
+        for (p, q) in fa.iter().zip(&fm) {
+            assert!((0..3).all(|c| (p[c] - q[c]).abs() < 1e-9), "{p:?} vs {q:?}");
+        }
     }
 
     #[test]

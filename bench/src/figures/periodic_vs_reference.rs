@@ -116,23 +116,6 @@ fn nearest(axis: &[f64], value: f64) -> usize {
         .expect("a non-empty axis")
 }
 
-/// The translation-free displacement field (m) of one sample, per vertex.
-fn field(db: &Database, index: [usize; 3]) -> Vec<[f64; 3]> {
-    let raw: Vec<[f64; 3]> = (0..db.n_vertices)
-        .map(|v| {
-            let d = db
-                .get(v, index[0], index[1], index[2])
-                .expect("index on the table's axes");
-            [f64::from(d[0]), f64::from(d[1]), f64::from(d[2])]
-        })
-        .collect();
-    let n = raw.len() as f64;
-    let mean: [f64; 3] = std::array::from_fn(|k| raw.iter().map(|d| d[k]).sum::<f64>() / n);
-    raw.iter()
-        .map(|d| std::array::from_fn(|k| d[k] - mean[k]))
-        .collect()
-}
-
 /// The vertices of one period of the tile's yarns in order along each yarn, unwrapped
 /// across the period (vertex, lattice offset in m), one list per yarn chain.
 fn chains(tile: &Tile) -> Vec<Vec<(usize, [f64; 2])>> {
@@ -336,7 +319,10 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let mut differences = Vec::new();
     for (name, index) in picks {
         let strain = [axes[0][index[0]], axes[1][index[1]], axes[2][index[2]]];
-        let (f_ref, f_ours) = (field(&main_table, index), field(ours, index));
+        let (f_ref, f_ours) = (
+            main_table.translation_free(index),
+            ours.translation_free(index),
+        );
         let sample = main[0]
             .1
             .agreement
