@@ -22,6 +22,8 @@ use anyhow::{Context, bail};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
+use sim_periodic::shard::{Completion, Shard, check_complete, write_completion};
+
 use crate::figure::{FigureContext, FigureOutput, FigureSpec, all_figures};
 
 /// Name of the folder (inside the reports folder) holding reference curves.
@@ -40,6 +42,53 @@ pub struct RunOptions {
     pub bless: bool,
     /// The `reports/` folder.
     pub reports_dir: PathBuf,
+    /// Run only this shard of the selected figures, for a job array
+    /// (`sim_periodic::shard`: the `t`-th selected figure belongs to shard `t mod N`). A
+    /// shard does not rewrite `reports/README.md`; it writes its completion record into
+    /// [`SHARDS_DIR`], and [`merge_figure_shards`] writes the README once all are there.
+    pub shard: Option<Shard>,
+}
+
+/// Where figure shards leave their completion records (`reports/.shards/`, not committed).
+pub const SHARDS_DIR: &str = ".shards";
+
+/// The completion record kind of figure shards.
+const SHARD_KIND: &str = "figures";
+
+/// What the shards of one figure run must agree on: the mode and the selection.
+fn shard_fingerprint(opts: &RunOptions) -> String {
+    format!(
+        "quick={} bless={} only={:?}",
+        opts.quick || opts.bless,
+        opts.bless,
+        opts.only
+    )
+}
+
+/// The merge of `count` figure shards run with the options `opts` (without its `shard`):
+/// checks that every shard finished with these options, then regenerates
+/// `reports/README.md` from the figures' manifests. Returns the shards' records (their
+/// `failed` lists the figures that failed, with the error).
+pub fn merge_figure_shards(opts: &RunOptions, count: usize) -> anyhow::Result<Vec<Completion>> {
+    merge_specs(&all_figures(), opts, count)
+}
+
+/// [`merge_figure_shards`] over an explicit list of figures.
+pub(crate) fn merge_specs(
+    specs: &[FigureSpec],
+    opts: &RunOptions,
+    count: usize,
+) -> anyhow::Result<Vec<Completion>> {
+    validate_specs(specs)?;
+    select(specs, opts.only.as_deref())?;
+    let records = check_complete(
+        &opts.reports_dir.join(SHARDS_DIR),
+        SHARD_KIND,
+        count,
+        &shard_fingerprint(opts),
+    )?;
+    write_readme(specs, &opts.reports_dir)?;
+    Ok(records)
 }
 
 /// The result of running one figure.
@@ -125,7 +174,15 @@ pub fn run_figures(opts: &RunOptions) -> anyhow::Result<Vec<FigureRun>> {
 /// [`run_figures`] over an explicit list of figures (the README indexes all of them).
 pub(crate) fn run_specs(specs: &[FigureSpec], opts: &RunOptions) -> anyhow::Result<Vec<FigureRun>> {
     validate_specs(specs)?;
-    let selected = select(specs, opts.only.as_deref())?;
+    let mut selected = select(specs, opts.only.as_deref())?;
+    if let Some(shard) = opts.shard {
+        selected = selected
+            .into_iter()
+            .enumerate()
+            .filter(|(t, _)| shard.owns(*t))
+            .map(|(_, s)| s)
+            .collect();
+    }
     let quick = opts.quick || opts.bless;
     fs::create_dir_all(&opts.reports_dir)
         .with_context(|| format!("creating {}", opts.reports_dir.display()))?;
@@ -161,7 +218,23 @@ pub(crate) fn run_specs(specs: &[FigureSpec], opts: &RunOptions) -> anyhow::Resu
     }
     overall.finish_and_clear();
 
-    write_readme(specs, &opts.reports_dir)?;
+    match opts.shard {
+        None => write_readme(specs, &opts.reports_dir)?,
+        Some(shard) => write_completion(
+            &opts.reports_dir.join(SHARDS_DIR),
+            &Completion {
+                kind: SHARD_KIND.into(),
+                index: shard.index,
+                count: shard.count,
+                fingerprint: shard_fingerprint(opts),
+                units: runs.len(),
+                failed: runs
+                    .iter()
+                    .filter_map(|r| Some(format!("{}: {:#}", r.name, r.error.as_ref()?)))
+                    .collect(),
+            },
+        )?,
+    }
     Ok(runs)
 }
 
@@ -537,6 +610,7 @@ mod tests {
             only: Some(vec!["test-squares".into()]),
             bless: true,
             reports_dir: reports_dir.clone(),
+            shard: None,
         };
         let runs = run_specs(&specs, &opts).unwrap();
         assert_eq!(runs.len(), 1);
@@ -592,6 +666,51 @@ mod tests {
             "{readme}"
         );
 
+        fs::remove_dir_all(&reports_dir).unwrap();
+    }
+
+    #[test]
+    fn figure_shards_split_the_selection_and_merge_into_the_readme() {
+        let reports_dir = temp_reports("shards");
+        let specs = [
+            spec("test-a", squares),
+            spec("test-b", squares),
+            spec("test-c", squares),
+        ];
+        let opts = |shard| RunOptions {
+            quick: true,
+            reports_dir: reports_dir.clone(),
+            shard,
+            ..RunOptions::default()
+        };
+        let first = run_specs(&specs, &opts(Some(Shard::new(0, 2).unwrap()))).unwrap();
+        let names: Vec<&str> = first.iter().map(|r| r.name).collect();
+        assert_eq!(names, ["test-a", "test-c"]);
+        assert!(
+            !reports_dir.join("README.md").exists(),
+            "a shard leaves the README"
+        );
+        let e = merge_specs(&specs, &opts(None), 2).unwrap_err().to_string();
+        assert!(e.contains("shard-1-of-2.json"), "{e}");
+        // Shards of another mode do not merge with these.
+        let full = RunOptions {
+            quick: false,
+            ..opts(None)
+        };
+        let second = run_specs(&specs, &opts(Some(Shard::new(1, 2).unwrap()))).unwrap();
+        assert_eq!(second.len(), 1);
+        let e = merge_specs(&specs, &full, 2).unwrap_err().to_string();
+        assert!(e.contains("other inputs"), "{e}");
+        let records = merge_specs(&specs, &opts(None), 2).unwrap();
+        assert_eq!(records.iter().map(|r| r.units).sum::<usize>(), 3);
+        let readme = fs::read_to_string(reports_dir.join("README.md")).unwrap();
+        assert!(
+            ["test-a", "test-b", "test-c"]
+                .iter()
+                .all(|n| readme.contains(&format!("[{n}]({n}/{n}.png)")))
+                && !readme.contains("not generated yet"),
+            "{readme}"
+        );
         fs::remove_dir_all(&reports_dir).unwrap();
     }
 

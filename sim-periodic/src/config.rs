@@ -686,7 +686,10 @@ fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, ConfigErr
 }
 
 /// Parses TOML `text` read from `path` (named in errors, with line and column).
-fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<T, ConfigError> {
+pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
+    text: &str,
+    path: &Path,
+) -> Result<T, ConfigError> {
     toml::from_str::<T>(text).map_err(|e| {
         let (line, column) = e
             .span()

@@ -63,6 +63,7 @@ use crate::periodic::{
     Equilibrium, EquilibriumSettings, PeriodicError, PeriodicTile, YarnModel, initial_dofs,
     solve_equilibrium,
 };
+use crate::shard::{Completion, Shard, ShardError, check_complete, write_completion};
 use yarn_pattern::madypg::{AXIS_NAMES, Database, DatabaseError};
 use yarn_pattern::tile::Tile;
 
@@ -135,6 +136,21 @@ pub enum GenerationError {
         /// What is wrong.
         problem: String,
     },
+    /// A sample a shard could not solve (marked in the checkpoint, [`generate_shard`]) that
+    /// the merge's repair pass could not reach either.
+    #[error(
+        "no equilibrium at (sx, sa, sy) = ({}, {}, {}) (marked failed by its shard): {problem}",
+        strain.sx, strain.sa, strain.sy
+    )]
+    ShardUnsolved {
+        /// The sample.
+        strain: Strain,
+        /// The shard's error.
+        problem: String,
+    },
+    /// The shards of a merge are incomplete or belong to other inputs.
+    #[error(transparent)]
+    Shard(#[from] ShardError),
     /// A solve produced a non-finite value (never written to a database).
     #[error("non-finite result at (sx, sa, sy) = ({}, {}, {})", .0.sx, .0.sa, .0.sy)]
     NonFinite(Strain),
@@ -322,6 +338,125 @@ pub fn generate(
     checkpoint: Option<&Path>,
     progress: &(dyn Fn(&SampleRecord) + Sync),
 ) -> Result<Generated, GenerationError> {
+    match run(
+        tile,
+        model,
+        axes,
+        settings,
+        checkpoint,
+        Plan::Full,
+        progress,
+    )? {
+        Outcome::Database(generated) => Ok(generated),
+        Outcome::Shard(_) => unreachable!("a full run yields a database"),
+    }
+}
+
+/// What one shard of a sharded generation did ([`generate_shard`]).
+#[derive(Clone, Debug)]
+pub struct ShardReport {
+    /// The shard's completion record (also written into the checkpoint folder).
+    pub completion: Completion,
+    /// Records of the samples this shard owns, in database order.
+    pub samples: Vec<SampleRecord>,
+    /// Wall time (s).
+    pub seconds: f64,
+}
+
+/// One shard of a database generation for a job array (see [`crate::shard`]); all shards and
+/// the merge share one `checkpoint` folder (a shared file system on a cluster).
+///
+/// **The continuation rule across shards.** The units are the `sa` lines, one per grid pair
+/// `(sx[i], sy[k])`, numbered `i + n_sx k`; shard `K` of `N` owns the lines with number
+/// `mod N = K` and every sample on them. To reach its lines a shard walks the same tree as
+/// [`generate`] (root, the `sx` line, the `sy` lines, then its `sa` lines), but only the
+/// branches that lead to its own lines, so each sample is continued from the same parent as
+/// in a single run and is the same to the last bit. Samples on a shared branch are solved by
+/// every shard that needs them (identical, written once to the common checkpoint). A sample
+/// no continuation reaches is marked as failed in the checkpoint (`sample-….failed`); the
+/// repair pass of [`generate`] needs the whole grid and runs in [`merge_shards`].
+///
+/// Rerunning a killed shard resumes from the checkpoint like [`generate`]. When the shard is
+/// done it writes `shard-K-of-N.json` ([`crate::shard::Completion`]) there.
+pub fn generate_shard(
+    tile: &Tile,
+    model: &YarnModel,
+    axes: [Vec<f64>; 3],
+    settings: &DatabaseSettings,
+    checkpoint: &Path,
+    shard: Shard,
+    progress: &(dyn Fn(&SampleRecord) + Sync),
+) -> Result<ShardReport, GenerationError> {
+    match run(
+        tile,
+        model,
+        axes,
+        settings,
+        Some(checkpoint),
+        Plan::Shard(shard),
+        progress,
+    )? {
+        Outcome::Shard(report) => Ok(report),
+        Outcome::Database(_) => unreachable!("a shard yields a report"),
+    }
+}
+
+/// The merge of `count` shards ([`generate_shard`]) in `checkpoint`: checks that every shard
+/// finished for these inputs, then assembles the database from the checkpointed samples and
+/// runs the repair pass of [`generate`] on the samples the shards marked as failed. Solves
+/// nothing else: a sample that is neither checkpointed nor marked is an error naming the
+/// shard that owns it. The database equals that of a single [`generate`] bit for bit.
+pub fn merge_shards(
+    tile: &Tile,
+    model: &YarnModel,
+    axes: [Vec<f64>; 3],
+    settings: &DatabaseSettings,
+    checkpoint: &Path,
+    count: usize,
+    progress: &(dyn Fn(&SampleRecord) + Sync),
+) -> Result<Generated, GenerationError> {
+    match run(
+        tile,
+        model,
+        axes,
+        settings,
+        Some(checkpoint),
+        Plan::Merge(count),
+        progress,
+    )? {
+        Outcome::Database(generated) => Ok(generated),
+        Outcome::Shard(_) => unreachable!("a merge yields a database"),
+    }
+}
+
+/// What [`run`] does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Plan {
+    /// The whole grid.
+    Full,
+    /// The lines of one shard, no repair.
+    Shard(Shard),
+    /// Assemble the shards' checkpoint of `count` shards, repair.
+    Merge(usize),
+}
+
+enum Outcome {
+    Database(Generated),
+    Shard(ShardReport),
+}
+
+/// The completion record kind of database shards.
+const SHARD_KIND: &str = "database";
+
+fn run(
+    tile: &Tile,
+    model: &YarnModel,
+    axes: [Vec<f64>; 3],
+    settings: &DatabaseSettings,
+    checkpoint: Option<&Path>,
+    plan: Plan,
+    progress: &(dyn Fn(&SampleRecord) + Sync),
+) -> Result<Outcome, GenerationError> {
     let start = Instant::now();
     // Validate the axes exactly as the database file format does.
     let empty = Database {
@@ -342,6 +477,9 @@ pub fn generate(
         }
     }
     let store = Checkpoint::open(checkpoint, tile, model, &axes, settings)?;
+    if let (Plan::Merge(count), Some(dir)) = (plan, &store.dir) {
+        check_complete(dir, SHARD_KIND, count, &store.fingerprint)?;
+    }
     let rest = initial_dofs(tile).map_err(|e| GenerationError::Relax(e.into()))?;
     let root = [0, 1, 2].map(|k| nearest_to_zero(&axes[k]));
     let flat = |[i, j, k]: [usize; 3]| i + dims[0] * (j + dims[1] * k);
@@ -349,6 +487,12 @@ pub fn generate(
         sx: axes[0][i],
         sa: axes[1][j],
         sy: axes[2][k],
+    };
+    // The sa line (unit) a sample belongs to.
+    let unit = |[i, _, k]: [usize; 3]| i + dims[0] * k;
+    let owned = |index: [usize; 3]| match plan {
+        Plan::Shard(shard) => shard.owns(unit(index)),
+        _ => true,
     };
     let results: Mutex<Vec<Option<Solved>>> = Mutex::new(vec![None; dims.iter().product()]);
     // The continuation error of every sample filled (for now) from its parent.
@@ -361,11 +505,34 @@ pub fn generate(
         let (record, parent) = match store.load(index, strain, tile)? {
             Some((record, dofs)) => (record, (strain, dofs)),
             None => {
-                let (record, parent, failure) =
-                    solve_or_fill(tile, model, index, strain, from, settings)?;
+                let (record, parent, failure) = match plan {
+                    Plan::Merge(count) => {
+                        let marked = store.load_failure(index)?.ok_or_else(|| {
+                            GenerationError::Checkpoint {
+                                path: store.path(index).unwrap_or_default(),
+                                problem: format!(
+                                    "missing: shard {} reports it finished but did not \
+                                     checkpoint this sample or mark it failed",
+                                    Shard::owner(unit(index), count)
+                                ),
+                            }
+                        })?;
+                        let (record, parent) =
+                            filled_sample(tile, model, index, strain, from, settings)?;
+                        let failure = GenerationError::ShardUnsolved {
+                            strain,
+                            problem: marked,
+                        };
+                        (record, parent, Some(failure))
+                    }
+                    _ => solve_or_fill(tile, model, index, strain, from, settings)?,
+                };
                 if record.solved {
                     store.save(&record, &parent.1)?;
                 } else if let Some(e) = failure {
+                    if matches!(plan, Plan::Shard(_)) {
+                        store.save_failure(index, &e)?;
+                    }
                     failures
                         .lock()
                         .expect("failures lock")
@@ -374,14 +541,19 @@ pub fn generate(
                 (record, parent)
             }
         };
-        if record.solved {
+        if record.solved && owned(index) {
             progress(&record);
         }
         results.lock().expect("results lock")[flat(index)] = Some((record, parent.clone()));
         Ok(parent)
     };
-    // Solves the samples along one axis outward from `seed` (already solved).
-    let line = |axis: usize, seed: [usize; 3], from: Parent| -> Result<(), GenerationError> {
+    // Solves the samples along one axis outward from `seed` (already solved), down to index
+    // `lo` and up to index `hi` (inclusive).
+    let line = |axis: usize,
+                seed: [usize; 3],
+                from: Parent,
+                (lo, hi): (usize, usize)|
+     -> Result<(), GenerationError> {
         let walk = |range: Box<dyn Iterator<Item = usize> + Send>| -> Result<(), GenerationError> {
             let mut prev = from.clone();
             for i in range {
@@ -392,8 +564,8 @@ pub fn generate(
             Ok(())
         };
         let (up, down) = rayon::join(
-            || walk(Box::new(seed[axis] + 1..dims[axis])),
-            || walk(Box::new((0..seed[axis]).rev())),
+            || walk(Box::new(seed[axis] + 1..=hi)),
+            || walk(Box::new((lo..seed[axis]).rev())),
         );
         up.and(down)
     };
@@ -403,20 +575,68 @@ pub fn generate(
             .map(|(_, p)| p.clone())
             .expect("continuation parent solved before its children")
     };
+    // The extent `(lo, hi)` of the indices in `needed` together with `seed`.
+    let extent = |seed: usize, needed: &mut dyn Iterator<Item = usize>| {
+        needed.fold((seed, seed), |(lo, hi), i| (lo.min(i), hi.max(i)))
+    };
 
-    // Root, then the sx line, then sy lines per sx, then sa lines per (sx, sy).
+    // Root, then the sx line, then sy lines per sx, then sa lines per (sx, sy); a shard only
+    // walks the branches that lead to its own sa lines.
+    let lines: Vec<[usize; 2]> = (0..dims[0] * dims[2])
+        .map(|ik| [ik % dims[0], ik / dims[0]])
+        .filter(|&[i, k]| owned([i, root[1], k]))
+        .collect();
     let root_parent = solve(root, (Strain::ZERO, &rest))?;
-    line(0, root, root_parent)?;
-    (0..dims[0]).into_par_iter().try_for_each(|i| {
+    let sx_range = extent(root[0], &mut lines.iter().map(|l| l[0]));
+    line(0, root, root_parent, sx_range)?;
+    let sx_needed: Vec<usize> = (sx_range.0..=sx_range.1)
+        .filter(|&i| lines.iter().any(|l| l[0] == i))
+        .collect();
+    sx_needed.into_par_iter().try_for_each(|i| {
         let seed = [i, root[1], root[2]];
-        line(2, seed, parent_at(seed))
+        let sy_range = extent(
+            root[2],
+            &mut lines.iter().filter(|l| l[0] == i).map(|l| l[1]),
+        );
+        line(2, seed, parent_at(seed), sy_range)
     })?;
-    (0..dims[0] * dims[2]).into_par_iter().try_for_each(|ik| {
-        let seed = [ik % dims[0], root[1], ik / dims[0]];
-        line(1, seed, parent_at(seed))
+    lines.par_iter().try_for_each(|&[i, k]| {
+        let seed = [i, root[1], k];
+        line(1, seed, parent_at(seed), (0, dims[1] - 1))
     })?;
 
     let mut results = results.into_inner().expect("results lock");
+    if let Plan::Shard(shard) = plan {
+        let failures = failures.into_inner().expect("failures lock");
+        let samples: Vec<SampleRecord> = results
+            .into_iter()
+            .flatten()
+            .map(|(record, _)| record)
+            .filter(|r| owned(r.index))
+            .collect();
+        let mut failed: Vec<(usize, String)> = failures
+            .into_iter()
+            .filter(|(f, _)| owned(unravel(dims, *f)))
+            .map(|(f, e)| (f, e.to_string()))
+            .collect();
+        failed.sort();
+        let completion = Completion {
+            kind: SHARD_KIND.into(),
+            index: shard.index,
+            count: shard.count,
+            fingerprint: store.fingerprint.clone(),
+            units: lines.len(),
+            failed: failed.into_iter().map(|(_, e)| e).collect(),
+        };
+        if let Some(dir) = &store.dir {
+            write_completion(dir, &completion)?;
+        }
+        return Ok(Outcome::Shard(ShardReport {
+            completion,
+            samples,
+            seconds: start.elapsed().as_secs_f64(),
+        }));
+    }
     let mut failures = failures.into_inner().expect("failures lock");
     failures.sort_by_key(|(f, _)| *f);
     // Repair: a sample its line could not reach is tried again from each solved grid
@@ -424,15 +644,8 @@ pub fn generate(
     // result does not depend on thread timing. Its children on the line have already
     // continued from its parent, as for a filled sample. Repaired samples are not
     // checkpointed: a resumed run reaches them the same way again.
-    let unravel = |f: usize| {
-        [
-            f % dims[0],
-            (f / dims[0]) % dims[1],
-            f / (dims[0] * dims[1]),
-        ]
-    };
     for (f, error) in failures {
-        let index = unravel(f);
+        let index = unravel(dims, f);
         let strain = strain_at(index);
         let t = Instant::now();
         let mut repaired = None;
@@ -475,11 +688,20 @@ pub fn generate(
         }
     }
     let (database, samples) = database_from(tile, axes, results)?;
-    Ok(Generated {
+    Ok(Outcome::Database(Generated {
         database,
         samples,
         seconds: start.elapsed().as_secs_f64(),
-    })
+    }))
+}
+
+/// The grid index `(isx, isa, isy)` of flat sample number `f` (`isx` fastest).
+fn unravel(dims: [usize; 3], f: usize) -> [usize; 3] {
+    [
+        f % dims[0],
+        (f / dims[0]) % dims[1],
+        f / (dims[0] * dims[1]),
+    ]
 }
 
 /// An equilibrium children continue from: its strain and DOFs.
@@ -534,32 +756,47 @@ fn solve_or_fill(
             Ok((record, parent, None))
         }
         Err(error @ GenerationError::Solve { .. }) => {
-            let (density, stress) =
-                state_under(tile, model, strain, from.1, settings).map_err(|source| {
-                    GenerationError::Solve {
-                        strain,
-                        bisections: 0,
-                        source,
-                    }
-                })?;
-            if !density.is_finite() || !stress.iter().all(|v| v.is_finite()) {
-                return Err(GenerationError::NonFinite(strain));
-            }
-            let record = SampleRecord {
-                index,
-                strain,
-                density,
-                stress,
-                iterations: 0,
-                substeps: 0,
-                seconds: t.elapsed().as_secs_f64(),
-                resumed: false,
-                solved: false,
-            };
-            Ok((record, (from.0, from.1.to_vec()), Some(error)))
+            let (mut record, parent) = filled_sample(tile, model, index, strain, from, settings)?;
+            record.seconds = t.elapsed().as_secs_f64();
+            Ok((record, parent, Some(error)))
         }
         Err(e) => Err(e),
     }
+}
+
+/// The unsolved sample `index` filled from its continuation parent `from`: the parent's DOFs
+/// under the sample's strain; children continue from `from` itself.
+fn filled_sample(
+    tile: &Tile,
+    model: &YarnModel,
+    index: [usize; 3],
+    strain: Strain,
+    from: (Strain, &[f64]),
+    settings: &DatabaseSettings,
+) -> Result<Solved, GenerationError> {
+    let (density, stress) =
+        state_under(tile, model, strain, from.1, settings).map_err(|source| {
+            GenerationError::Solve {
+                strain,
+                bisections: 0,
+                source,
+            }
+        })?;
+    if !density.is_finite() || !stress.iter().all(|v| v.is_finite()) {
+        return Err(GenerationError::NonFinite(strain));
+    }
+    let record = SampleRecord {
+        index,
+        strain,
+        density,
+        stress,
+        iterations: 0,
+        substeps: 0,
+        seconds: 0.0,
+        resumed: false,
+        solved: false,
+    };
+    Ok((record, (from.0, from.1.to_vec())))
 }
 
 /// The database of [`generate`]'s finished samples (in flat sample order): the material
@@ -718,6 +955,8 @@ fn nearest_to_zero(values: &[f64]) -> usize {
 /// The sample store of a resumable generation (a no-op without a directory).
 struct Checkpoint {
     dir: Option<PathBuf>,
+    /// Fingerprint of the inputs (empty without a directory).
+    fingerprint: String,
 }
 
 const CHECKPOINT_MAGIC: &[u8; 8] = b"YWDBCK01";
@@ -732,7 +971,10 @@ impl Checkpoint {
         settings: &DatabaseSettings,
     ) -> Result<Self, GenerationError> {
         let Some(dir) = dir else {
-            return Ok(Self { dir: None });
+            return Ok(Self {
+                dir: None,
+                fingerprint: String::new(),
+            });
         };
         let problem = |path: &Path, problem: String| GenerationError::Checkpoint {
             path: path.to_path_buf(),
@@ -767,6 +1009,7 @@ impl Checkpoint {
         }
         Ok(Self {
             dir: Some(dir.to_path_buf()),
+            fingerprint: fingerprint.trim().to_string(),
         })
     }
 
@@ -798,13 +1041,39 @@ impl Checkpoint {
         for v in header.iter().chain(dofs) {
             bytes.extend_from_slice(&v.to_le_bytes());
         }
-        let tmp = path.with_extension("tmp");
-        std::fs::write(&tmp, &bytes)
-            .and_then(|()| std::fs::rename(&tmp, &path))
-            .map_err(|e| GenerationError::Checkpoint {
-                path: path.clone(),
+        write_atomically(&path, &bytes)
+    }
+
+    /// The failure marker of sample `index` (written by a shard, read by the merge).
+    fn failure_path(&self, index: [usize; 3]) -> Option<PathBuf> {
+        self.path(index).map(|p| p.with_extension("failed"))
+    }
+
+    /// Marks sample `index` as one the continuation could not reach, with the error.
+    fn save_failure(
+        &self,
+        index: [usize; 3],
+        error: &GenerationError,
+    ) -> Result<(), GenerationError> {
+        match self.failure_path(index) {
+            Some(path) => write_atomically(&path, format!("{error}\n").as_bytes()),
+            None => Ok(()),
+        }
+    }
+
+    /// The error a shard marked sample `index` with, if any.
+    fn load_failure(&self, index: [usize; 3]) -> Result<Option<String>, GenerationError> {
+        let Some(path) = self.failure_path(index) else {
+            return Ok(None);
+        };
+        match std::fs::read_to_string(&path) {
+            Ok(text) => Ok(Some(text.trim().to_string())),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(GenerationError::Checkpoint {
+                path,
                 problem: e.to_string(),
-            })
+            }),
+        }
     }
 
     fn load(
@@ -860,6 +1129,20 @@ impl Checkpoint {
         };
         Ok(Some((record, values[9..].to_vec())))
     }
+}
+
+/// Writes `bytes` to `path` through a temporary file of this process and a rename, so that a
+/// reader (another shard, a resumed run) sees the whole file or none of it.
+fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), GenerationError> {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(format!(".{}.tmp", std::process::id()));
+    let tmp = PathBuf::from(tmp);
+    std::fs::write(&tmp, bytes)
+        .and_then(|()| std::fs::rename(&tmp, path))
+        .map_err(|e| GenerationError::Checkpoint {
+            path: path.to_path_buf(),
+            problem: e.to_string(),
+        })
 }
 
 /// FNV-1a, 64 bit (a stable fingerprint, not a cryptographic hash).

@@ -24,6 +24,8 @@
 //! | [`periodic`] | the tile energy under a coarse deformation, constraints, equilibrium, stress |
 //! | [`fit`] | yarn-parameter estimation (seed 002 §7): rest-shape estimation, the objective of Eq. 11, particle swarm then COBYLA, resumable journal |
 //! | [`reference`](mod@reference) | our database of a published tile against the published table; per-term forces on the file geometry |
+//! | [`campaign`] | fit campaigns: every fit config × every seed as shardable tasks, merged into one table |
+//! | [`shard`] | deterministic shards of long runs for job arrays, and the completion records their merge checks |
 //! | [`patterns`] | procedural pattern library: tile builder from yarn polylines, knit and weave guesses, relaxation |
 //!
 //! Bending is single curvature along either tile axis (the tile rolled onto a cylinder,
@@ -31,6 +33,7 @@
 //! databases per curvature beside them ([`bending_database`]).
 
 pub mod bending_database;
+pub mod campaign;
 pub mod coarse;
 pub mod config;
 pub mod curves;
@@ -40,3 +43,4 @@ pub mod patterns;
 pub mod periodic;
 pub mod pullback;
 pub mod reference;
+pub mod shard;

@@ -8,11 +8,17 @@
 //!                                  # out/samples.csv, out/manifest-database.json
 //! sim-periodic fit      fit.toml   # out/fit.json, out/fitted-curves.csv, out/journal.jsonl,
 //!                                  # out/manifest-fit.json (config: config::FitConfig)
+//! sim-periodic campaign c.toml     # every fit × seed: out/<fit>/seed-<s>/, out/campaign.csv
 //! ```
 //!
 //! `database` checkpoints every sample into `out/checkpoint/`, `fit` journals every objective
 //! evaluation into `out/journal.jsonl`; rerunning the same command after an interruption
 //! resumes from there with the same result.
+//!
+//! For job arrays (`scripts/slurm/`): `database run.toml --shard K/N` solves shard K of N
+//! into the common checkpoint and `database run.toml --merge N` writes the database, bit for
+//! bit that of a single run ([`sim_periodic::database::generate_shard`]); `campaign` takes the
+//! same two options, with its tasks as the units.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -25,7 +31,10 @@ use serde_json::json;
 
 use sim_periodic::config::Config;
 use sim_periodic::curves::{CurveSettings, uniaxial_curve};
-use sim_periodic::database::{DatabaseSettings, generate, relax_period, relax_reference};
+use sim_periodic::database::{
+    DatabaseSettings, generate, generate_shard, merge_shards, relax_period, relax_reference,
+};
+use sim_periodic::shard::Shard;
 use yarn_pattern::pyp::{read_pyp, write_pyp};
 
 /// `fit` warns about a direction with fewer comfort-range samples than this: its part of the
@@ -55,15 +64,35 @@ enum Command {
         /// TOML config.
         config: PathBuf,
     },
-    /// Displacement database ΔQ(sx, sa, sy) (resumable).
+    /// Displacement database ΔQ(sx, sa, sy) (resumable; shardable for job arrays).
     Database {
         /// TOML config.
         config: PathBuf,
+        /// Solve only shard K of N (0 <= K < N) into the common checkpoint, for a job array;
+        /// `--merge N` then writes the database.
+        #[arg(long, value_name = "K/N", conflicts_with = "merge")]
+        shard: Option<Shard>,
+        /// Merge the N finished shards of `--shard K/N` into the database (bit for bit that
+        /// of a single run).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+        merge: Option<u64>,
     },
     /// Fit the yarn parameters to target curves (seed 002 §7; resumable).
     Fit {
         /// TOML config (see the library's `config::FitConfig`).
         config: PathBuf,
+    },
+    /// Every fit of a campaign with every seed, then the merged table `campaign.csv`
+    /// (resumable; shardable for job arrays; see the library's `campaign`).
+    Campaign {
+        /// TOML campaign file.
+        campaign: PathBuf,
+        /// Run only the tasks of shard K of N (0 <= K < N); `--merge N` then writes the table.
+        #[arg(long, value_name = "K/N", conflicts_with = "merge")]
+        shard: Option<Shard>,
+        /// Merge the N finished shards of `--shard K/N` into `campaign.csv`.
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+        merge: Option<u64>,
     },
 }
 
@@ -72,8 +101,17 @@ fn main() -> Result<()> {
     match cli.command {
         Command::Relax { config } => relax(&config),
         Command::Curve { config } => curve(&config),
-        Command::Database { config } => database(&config),
+        Command::Database {
+            config,
+            shard,
+            merge,
+        } => database(&config, shard, merge.map(|n| n as usize)),
         Command::Fit { config } => fit(&config),
+        Command::Campaign {
+            campaign,
+            shard,
+            merge,
+        } => run_campaign(&campaign, shard, merge.map(|n| n as usize)),
     }
 }
 
@@ -216,7 +254,7 @@ fn curve(path: &Path) -> Result<()> {
     Ok(())
 }
 
-fn database(path: &Path) -> Result<()> {
+fn database(path: &Path, shard: Option<Shard>, merge: Option<usize>) -> Result<()> {
     let s = setup(path)?;
     let db = &s.config.database;
     let settings = DatabaseSettings {
@@ -228,16 +266,51 @@ fn database(path: &Path) -> Result<()> {
     let t = Instant::now();
     let relaxed = reference(&s, &settings.equilibrium)?;
     let total: usize = axes.iter().map(Vec::len).product();
-    let progress = bar(total as u64, "samples");
     let checkpoint = s.config.out.join("checkpoint");
-    let generated = generate(
-        &relaxed,
-        &s.model,
-        axes.clone(),
-        &settings,
-        Some(&checkpoint),
-        &|_| progress.inc(1),
-    )?;
+    if let Some(shard) = shard {
+        let per_shard = total.div_ceil(shard.count) as u64;
+        let progress = bar(per_shard, "samples");
+        let report = generate_shard(
+            &relaxed,
+            &s.model,
+            axes,
+            &settings,
+            &checkpoint,
+            shard,
+            &|_| progress.inc(1),
+        )?;
+        progress.finish_and_clear();
+        println!(
+            "shard {shard}: {} sa lines, {} samples ({} resumed, {} failed) in {:.1} s -> {}",
+            report.completion.units,
+            report.samples.len(),
+            report.samples.iter().filter(|r| r.resumed).count(),
+            report.completion.failed.len(),
+            report.seconds,
+            checkpoint.join(shard.record_name()).display()
+        );
+        return Ok(());
+    }
+    let progress = bar(total as u64, "samples");
+    let generated = match merge {
+        Some(count) => merge_shards(
+            &relaxed,
+            &s.model,
+            axes.clone(),
+            &settings,
+            &checkpoint,
+            count,
+            &|_| progress.inc(1),
+        )?,
+        None => generate(
+            &relaxed,
+            &s.model,
+            axes.clone(),
+            &settings,
+            Some(&checkpoint),
+            &|_| progress.inc(1),
+        )?,
+    };
     progress.finish_and_clear();
     let db_dir = s.config.out.join("database");
     generated.database.write(&db_dir)?;
@@ -294,6 +367,7 @@ fn database(path: &Path) -> Result<()> {
             "relax_period": s.config.relax_period,
             "period_m": relaxed.period,
             "samples": total,
+            "merged_shards": merge,
             "samples_resumed": resumed,
             "fill_unsolved": settings.fill_unsolved,
             "samples_unsolved": unsolved.len(),
@@ -321,13 +395,127 @@ fn database(path: &Path) -> Result<()> {
 }
 
 fn fit(path: &Path) -> Result<()> {
-    use sim_periodic::config::{BoundConfig, FitConfig};
+    run_fit(sim_periodic::config::FitConfig::read(path)?, path)
+}
+
+/// A campaign ([`sim_periodic::campaign`]): the tasks of `shard` (all without one), each a
+/// `fit` with the task's seed and output folder; a failed task is reported and recorded, the
+/// others go on. Then, without a shard or with `--merge N`, the merged table.
+fn run_campaign(path: &Path, shard: Option<Shard>, merge: Option<usize>) -> Result<()> {
+    use sim_periodic::campaign::{Campaign, SHARD_KIND, TABLE_FILE};
+    use sim_periodic::shard::{Completion, check_complete, write_completion};
+    let campaign = Campaign::read(path)?;
+    let fingerprint = campaign.fingerprint()?;
+    let tasks = campaign.tasks();
+    let failed: Vec<usize> = if let Some(count) = merge {
+        let records = check_complete(&campaign.out, SHARD_KIND, count, &fingerprint)?;
+        let mut failed = Vec::new();
+        for r in records {
+            for f in r.failed {
+                let number = f.split(':').next().and_then(|n| n.trim().parse().ok());
+                failed.push(number.with_context(|| {
+                    format!(
+                        "shard {}/{}: unreadable failed task {f:?}",
+                        r.index, r.count
+                    )
+                })?);
+            }
+        }
+        failed
+    } else {
+        let shard = shard.unwrap_or(Shard::ALL);
+        let mut failed = Vec::new();
+        let owned: Vec<_> = tasks.iter().filter(|t| shard.owns(t.number)).collect();
+        for task in &owned {
+            eprintln!(
+                "task {} of {}: {} seed {} -> {}",
+                task.number + 1,
+                tasks.len(),
+                task.name,
+                task.seed,
+                task.out.display()
+            );
+            let mut config = sim_periodic::config::FitConfig::read(&task.fit)?;
+            config.fit.seed = task.seed;
+            config.out = task.out.clone();
+            if let Err(e) = run_fit(config, &task.fit) {
+                eprintln!("error: task {} failed: {e:#}", task.number);
+                failed.push(format!(
+                    "{}: {} seed {}: {e:#}",
+                    task.number, task.name, task.seed
+                ));
+            }
+        }
+        if shard != Shard::ALL {
+            write_completion(
+                &campaign.out,
+                &Completion {
+                    kind: SHARD_KIND.into(),
+                    index: shard.index,
+                    count: shard.count,
+                    fingerprint,
+                    units: owned.len(),
+                    failed: failed.clone(),
+                },
+            )?;
+            println!(
+                "shard {shard}: {} tasks ({} failed) -> {}",
+                owned.len(),
+                failed.len(),
+                campaign.out.join(shard.record_name()).display()
+            );
+            return Ok(());
+        }
+        failed
+            .iter()
+            .filter_map(|f| f.split(':').next()?.parse().ok())
+            .collect()
+    };
+    let rows = sim_periodic::campaign::merge(&campaign, &failed)?;
+    println!(
+        "{} tasks ({} failed) -> {}",
+        rows.len(),
+        failed.len(),
+        campaign.out.join(TABLE_FILE).display()
+    );
+    // The spread over seeds of each fit's comfort-range error.
+    for fit in &campaign.fits {
+        let mut errors: Vec<f64> = rows
+            .iter()
+            .filter(|r| &r.task.fit == fit)
+            .filter_map(|r| r.result.as_ref()?["comfort_error"].as_f64())
+            .collect();
+        errors.sort_by(f64::total_cmp);
+        if let (Some(lo), Some(hi)) = (errors.first(), errors.last()) {
+            println!(
+                "  {:24} comfort-range error {:.2} – {:.2} % over {} seeds",
+                rows.iter()
+                    .find(|r| &r.task.fit == fit)
+                    .map_or("", |r| r.task.name.as_str()),
+                100.0 * lo,
+                100.0 * hi,
+                errors.len()
+            );
+        }
+    }
+    if !failed.is_empty() {
+        bail!(
+            "{} of {} tasks failed (status = failed in {})",
+            failed.len(),
+            rows.len(),
+            campaign.out.join(TABLE_FILE).display()
+        );
+    }
+    Ok(())
+}
+
+fn run_fit(config: sim_periodic::config::FitConfig, path: &Path) -> Result<()> {
+    use sim_periodic::config::BoundConfig;
     use sim_periodic::fit::{
         Bound, Journal, Parameter, ParameterSpace, Progress, Targets, estimated_radius,
         fingerprint, stretched_geometry,
     };
     use sim_periodic::patterns::Pattern;
-    let config = FitConfig::read(path)?;
     let (geometry, radius) = match (&config.tile, &config.pattern) {
         (Some(tile), None) => {
             if config.resolution.is_some() {

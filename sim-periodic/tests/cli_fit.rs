@@ -4,12 +4,8 @@
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use sim_periodic::fit::{ParameterSpace, estimated_radius};
-use sim_periodic::periodic::YarnModel;
-use yarn_pattern::direction::Direction;
-
 mod common;
-use common::{stockinette_geometry, targets_of};
+use common::known_weft_targets;
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_sim-periodic"))
@@ -49,12 +45,7 @@ fn journal_entries(path: &std::path::Path) -> usize {
 #[test]
 fn a_fit_killed_mid_swarm_resumes_to_the_uninterrupted_result() {
     let dir = scratch("resume");
-    let geometry = stockinette_geometry();
-    let base = YarnModel::default_for_radius(1e-3);
-    let space = ParameterSpace::paper(&base, estimated_radius(&geometry, &base).unwrap()).unwrap();
-    let truth = space.model(&[0.6, 0.4, 0.55, 0.45, 0.58]);
-    let targets = targets_of(&geometry, &truth, &[(Direction::Weft, 0.3)], 3);
-    std::fs::write(dir.join("curves.csv"), targets.to_csv()).unwrap();
+    std::fs::write(dir.join("curves.csv"), known_weft_targets().to_csv()).unwrap();
     for name in ["a", "b"] {
         std::fs::write(
             dir.join(format!("{name}.toml")),

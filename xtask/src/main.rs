@@ -1,7 +1,7 @@
 //! Repository automation.
 //!
 //! ```text
-//! cargo xtask reproduce-figures [--quick] [--only NAME[,NAME]] [--bless]
+//! cargo xtask reproduce-figures [--quick] [--only NAME[,NAME]] [--bless] [--shard K/N | --merge N]
 //! cargo xtask validate [--quick]
 //! cargo xtask list
 //! ```
@@ -36,6 +36,14 @@ enum Cmd {
         /// quick mode, so the references must be quick-mode data.
         #[arg(long)]
         bless: bool,
+        /// Run only shard K of N (0 <= K < N) of the selected figures, for a job array
+        /// (`scripts/slurm/figures.sbatch`); leaves reports/README.md to `--merge N`.
+        #[arg(long, value_name = "K/N", conflicts_with = "merge")]
+        shard: Option<sim_periodic::shard::Shard>,
+        /// Check that the N shards run with the same options finished, and regenerate
+        /// reports/README.md (runs no figure).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+        merge: Option<u64>,
     },
     /// Cross-method validation: the same yarn through every method (`cross-method`) and the
     /// closed loop (`closed-loop`), written to reports/ like any figure, with the agreement
@@ -51,7 +59,16 @@ enum Cmd {
 
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
-        Cmd::ReproduceFigures { quick, only, bless } => reproduce_figures(quick, only, bless),
+        Cmd::ReproduceFigures {
+            quick,
+            only,
+            bless,
+            shard,
+            merge,
+        } => match merge {
+            Some(count) => merge_figures(quick, only, bless, count as usize),
+            None => reproduce_figures(quick, only, bless, shard),
+        },
         Cmd::Validate { quick } => validate(quick),
         Cmd::List => {
             list();
@@ -73,7 +90,46 @@ fn workspace_root() -> anyhow::Result<PathBuf> {
         .context("xtask manifest folder has no parent")
 }
 
-fn reproduce_figures(quick: bool, only: Vec<String>, bless: bool) -> anyhow::Result<ExitCode> {
+/// `reproduce-figures --merge N`: the README once every shard has finished; fails when a
+/// shard recorded a failed figure.
+fn merge_figures(
+    quick: bool,
+    only: Vec<String>,
+    bless: bool,
+    count: usize,
+) -> anyhow::Result<ExitCode> {
+    let reports_dir = workspace_root()?.join("reports");
+    let opts = bench::RunOptions {
+        quick,
+        only: (!only.is_empty()).then_some(only),
+        bless,
+        reports_dir: reports_dir.clone(),
+        shard: None,
+    };
+    let records = bench::report::merge_figure_shards(&opts, count)?;
+    let figures: usize = records.iter().map(|r| r.units).sum();
+    let failed: Vec<&String> = records.iter().flat_map(|r| &r.failed).collect();
+    println!(
+        "{count} shards, {figures} figures ({} failed); wrote {}",
+        failed.len(),
+        reports_dir.join("README.md").display()
+    );
+    for f in &failed {
+        eprintln!("error in {f}");
+    }
+    Ok(if failed.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+fn reproduce_figures(
+    quick: bool,
+    only: Vec<String>,
+    bless: bool,
+    shard: Option<sim_periodic::shard::Shard>,
+) -> anyhow::Result<ExitCode> {
     let reports_dir = workspace_root()?.join("reports");
     if bless && !quick {
         eprintln!("note: --bless implies --quick (reference curves are quick-mode data)");
@@ -83,6 +139,7 @@ fn reproduce_figures(quick: bool, only: Vec<String>, bless: bool) -> anyhow::Res
         only: (!only.is_empty()).then_some(only),
         bless,
         reports_dir: reports_dir.clone(),
+        shard,
     };
     let runs = bench::run_figures(&opts)?;
     if runs.is_empty() {
@@ -119,6 +176,7 @@ fn validate(quick: bool) -> anyhow::Result<ExitCode> {
         quick,
         VALIDATION_FIGURES.iter().map(|s| s.to_string()).collect(),
         false,
+        None,
     )?;
     let reports = workspace_root()?.join("reports");
     for name in VALIDATION_FIGURES {

@@ -207,6 +207,17 @@ pub fn targets_of(
     targets
 }
 
+/// Small weft target curves (3 samples to s = 0.3) of a known yarn inside the paper's bounds
+/// on the procedural stockinette, for fits run through the command line.
+pub fn known_weft_targets() -> Targets {
+    let geometry = stockinette_geometry();
+    let base = YarnModel::default_for_radius(1e-3);
+    let r = sim_periodic::fit::estimated_radius(&geometry, &base).unwrap();
+    let space = sim_periodic::fit::ParameterSpace::paper(&base, r).unwrap();
+    let truth = space.model(&[0.6, 0.4, 0.55, 0.45, 0.58]);
+    targets_of(&geometry, &truth, &[(Direction::Weft, 0.3)], 3)
+}
+
 /// The rectangular repeat of a tile with lattice skew ½ as one periodic tile: copies `c = 0, 1`
 /// of every vertex at `X + c a₂` (copy `c` of vertex `v` is vertex `v + c n`), periods
 /// `A₁ = a₁`, `A₂ = 2 a₂ − a₁ = (0, 2 p_y)`. An edge of copy `c` with shift `(dx, dy)` ends at
