@@ -11,7 +11,7 @@ use sim_periodic::periodic::YarnModel;
 use sim_periodic::shard::Shard;
 
 mod common;
-use common::{known_weft_targets, stockinette};
+use common::{small_fit_config, stockinette, write_sharding_campaign, write_sharding_database};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_sim-periodic"))
@@ -138,34 +138,10 @@ fn merged_shards_equal_the_single_run_with_failed_samples() {
     }
 }
 
-const DATABASE: &str = r#"
-tile = "stockinette.pyp"
-out = "OUT"
-relax_period = false
-[database]
-sx = [-0.1, 0.0, 0.1, 0.2, 0.3]
-sa = [-0.2, -0.1, 0.0, 0.1, 0.2]
-sy = [0.0, 0.1, 0.2]
-"#;
-
 #[test]
 fn a_database_shard_killed_mid_way_reruns_to_the_single_run_bytes() {
     let dir = scratch("database");
-    std::fs::copy(
-        concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../tests/data/patterns/stockinette.pyp"
-        ),
-        dir.join("stockinette.pyp"),
-    )
-    .unwrap();
-    for name in ["single", "sharded"] {
-        std::fs::write(
-            dir.join(format!("{name}.toml")),
-            DATABASE.replace("OUT", name),
-        )
-        .unwrap();
-    }
+    write_sharding_database(&dir);
     ok(bin()
         .arg("database")
         .arg(dir.join("single.toml"))
@@ -227,45 +203,10 @@ fn a_database_shard_killed_mid_way_reruns_to_the_single_run_bytes() {
     }
 }
 
-const FIT: &str = r#"
-targets = "curves.csv"
-pattern = "PATTERN"
-out = "unused"
-
-[parameters]
-k1 = "paper"
-bending = "paper"
-
-[fit]
-particles = 4
-swarm_iterations = 2
-swarm_samples = 3
-local_samples = 3
-local_evaluations = 4
-compression_nodes = 2
-sample_layout = "comfort-half"
-"#;
-
 #[test]
 fn a_campaign_in_shards_merges_to_the_single_run_table() {
     let dir = scratch("campaign");
-    std::fs::write(dir.join("curves.csv"), known_weft_targets().to_csv()).unwrap();
-    for pattern in ["stockinette", "garter"] {
-        std::fs::write(
-            dir.join(format!("{pattern}.toml")),
-            FIT.replace("PATTERN", pattern),
-        )
-        .unwrap();
-    }
-    for name in ["single", "sharded"] {
-        std::fs::write(
-            dir.join(format!("{name}.toml")),
-            format!(
-                "out = \"{name}\"\nfits = [\"stockinette.toml\", \"garter.toml\"]\nseeds = [1, 2]\n"
-            ),
-        )
-        .unwrap();
-    }
+    write_sharding_campaign(&dir);
     let out = ok(bin()
         .arg("campaign")
         .arg(dir.join("single.toml"))
@@ -303,7 +244,7 @@ fn a_campaign_in_shards_merges_to_the_single_run_table() {
     // Changed inputs invalidate the shards' records.
     std::fs::write(
         dir.join("garter.toml"),
-        FIT.replace("PATTERN", "garter") + "seed = 7\n",
+        small_fit_config("garter") + "seed = 7\n",
     )
     .unwrap();
     let stderr = refused(sim("campaign", &sharded, &["--merge", "3"]));

@@ -12,7 +12,7 @@ use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 mod common;
-use common::known_weft_targets;
+use common::{write_sharding_campaign, write_sharding_database};
 
 const BIN: &str = env!("CARGO_BIN_EXE_sim-periodic");
 
@@ -109,24 +109,7 @@ fn job_arrays_merge_to_the_single_process_results() {
 
     // A database: 4 shards and their merge.
     let dir = scratch("database");
-    std::fs::copy(
-        concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../tests/data/patterns/stockinette.pyp"
-        ),
-        dir.join("stockinette.pyp"),
-    )
-    .unwrap();
-    let config = "tile = \"stockinette.pyp\"\nrelax_period = false\n[database]\n\
-                  sx = [-0.1, 0.0, 0.1, 0.2, 0.3]\nsa = [-0.2, -0.1, 0.0, 0.1, 0.2]\n\
-                  sy = [0.0, 0.1, 0.2]\n";
-    for name in ["single", "sharded"] {
-        std::fs::write(
-            dir.join(format!("{name}.toml")),
-            format!("out = \"{name}\"\n{config}"),
-        )
-        .unwrap();
-    }
+    write_sharding_database(&dir);
     ok(Command::new(BIN)
         .current_dir(&dir)
         .args(["database", "single.toml"])
@@ -154,27 +137,7 @@ fn job_arrays_merge_to_the_single_process_results() {
     // A fit campaign, 2 fits × 2 seeds: shard 3 is cancelled, the merge names it; rerun alone,
     // the merge completes with the single-process table.
     let dir = scratch("campaign");
-    std::fs::write(dir.join("curves.csv"), known_weft_targets().to_csv()).unwrap();
-    let fit = "targets = \"curves.csv\"\nout = \"unused\"\n[parameters]\nk1 = \"paper\"\n\
-               bending = \"paper\"\n[fit]\nparticles = 4\nswarm_iterations = 2\n\
-               swarm_samples = 3\nlocal_samples = 3\nlocal_evaluations = 4\n\
-               compression_nodes = 2\nsample_layout = \"comfort-half\"\n";
-    for pattern in ["stockinette", "garter"] {
-        std::fs::write(
-            dir.join(format!("{pattern}.toml")),
-            format!("pattern = \"{pattern}\"\n{fit}"),
-        )
-        .unwrap();
-    }
-    for name in ["single", "sharded"] {
-        std::fs::write(
-            dir.join(format!("{name}.toml")),
-            format!(
-                "out = \"{name}\"\nfits = [\"stockinette.toml\", \"garter.toml\"]\nseeds = [1, 2]\n"
-            ),
-        )
-        .unwrap();
-    }
+    write_sharding_campaign(&dir);
     ok(Command::new(BIN)
         .current_dir(&dir)
         .args(["campaign", "single.toml"])

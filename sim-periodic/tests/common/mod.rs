@@ -218,6 +218,60 @@ pub fn known_weft_targets() -> Targets {
     targets_of(&geometry, &truth, &[(Direction::Weft, 0.3)], 3)
 }
 
+/// Writes into `dir` a small database run over a 5 × 5 × 3 grid on the real stockinette
+/// (`stockinette.pyp`), as two configs with the outputs `single/` and `sharded/`
+/// (`single.toml`, `sharded.toml`), for sharded runs through the command line.
+pub fn write_sharding_database(dir: &std::path::Path) {
+    let tile = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/patterns/stockinette.pyp"
+    );
+    std::fs::copy(tile, dir.join("stockinette.pyp")).unwrap();
+    let config = "tile = \"stockinette.pyp\"\nrelax_period = false\n[database]\n\
+                  sx = [-0.1, 0.0, 0.1, 0.2, 0.3]\nsa = [-0.2, -0.1, 0.0, 0.1, 0.2]\n\
+                  sy = [0.0, 0.1, 0.2]\n";
+    for name in ["single", "sharded"] {
+        std::fs::write(
+            dir.join(format!("{name}.toml")),
+            format!("out = \"{name}\"\n{config}"),
+        )
+        .unwrap();
+    }
+}
+
+/// A tiny fit config on the procedural `pattern` against `curves.csv` (seconds per fit).
+pub fn small_fit_config(pattern: &str) -> String {
+    format!(
+        "targets = \"curves.csv\"\npattern = \"{pattern}\"\nout = \"unused\"\n\
+         [parameters]\nk1 = \"paper\"\nbending = \"paper\"\n[fit]\nparticles = 4\n\
+         swarm_iterations = 2\nswarm_samples = 3\nlocal_samples = 3\nlocal_evaluations = 4\n\
+         compression_nodes = 2\nsample_layout = \"comfort-half\"\n"
+    )
+}
+
+/// Writes into `dir` a campaign of two tiny fits (`stockinette.toml`, `garter.toml`, on
+/// [`known_weft_targets`]) × seeds 1 and 2, as `single.toml` and `sharded.toml` with the
+/// outputs `single/` and `sharded/`.
+pub fn write_sharding_campaign(dir: &std::path::Path) {
+    std::fs::write(dir.join("curves.csv"), known_weft_targets().to_csv()).unwrap();
+    for pattern in ["stockinette", "garter"] {
+        std::fs::write(
+            dir.join(format!("{pattern}.toml")),
+            small_fit_config(pattern),
+        )
+        .unwrap();
+    }
+    for name in ["single", "sharded"] {
+        std::fs::write(
+            dir.join(format!("{name}.toml")),
+            format!(
+                "out = \"{name}\"\nfits = [\"stockinette.toml\", \"garter.toml\"]\nseeds = [1, 2]\n"
+            ),
+        )
+        .unwrap();
+    }
+}
+
 /// The rectangular repeat of a tile with lattice skew ½ as one periodic tile: copies `c = 0, 1`
 /// of every vertex at `X + c a₂` (copy `c` of vertex `v` is vertex `v + c n`), periods
 /// `A₁ = a₁`, `A₂ = 2 a₂ − a₁ = (0, 2 p_y)`. An edge of copy `c` with shift `(dx, dy)` ends at
