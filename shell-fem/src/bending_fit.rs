@@ -436,12 +436,18 @@ pub fn read_bending_csv(path: &std::path::Path) -> Result<Vec<BendingTarget>, Sh
         file: file.clone(),
         source,
     })?;
+    parse_bending_csv(&text, &file)
+}
+
+/// [`read_bending_csv`] on CSV `text`; `file` names the source in errors.
+pub fn parse_bending_csv(text: &str, file: &str) -> Result<Vec<BendingTarget>, ShellError> {
+    let file = file.to_string();
     let err = |line: usize, problem: String| ShellError::Data {
         file: file.clone(),
         line,
         problem,
     };
-    let records = crate::csv_io::records(&text, &file)?;
+    let records = crate::csv_io::records(text, &file)?;
     let Some((head, rows)) = records.split_first() else {
         return Err(err(0, "no bending targets".into()));
     };

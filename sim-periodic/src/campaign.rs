@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use crate::config::ConfigError;
-use crate::database::fnv1a;
+use solver::checksum::fnv1a;
 
 /// A campaign file, its paths resolved against the file's folder.
 #[derive(Clone, Debug, Deserialize)]
@@ -60,14 +60,32 @@ pub const SHARD_KIND: &str = "campaign";
 pub const TABLE_FILE: &str = "campaign.csv";
 
 impl Campaign {
-    /// Reads and checks `path`: at least one fit and one seed, distinct fit names (stems)
-    /// and seeds, fit configs that exist.
+    /// Reads and checks `path` ([`Campaign::parse`]), resolves its paths against the file's
+    /// folder and checks that the fit configs exist.
     pub fn read(path: &Path) -> Result<Self, ConfigError> {
         let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
             path: path.to_path_buf(),
             source,
         })?;
-        let mut campaign: Self = crate::config::parse_toml(&text, path)?;
+        let mut campaign = Self::parse(&text, path)?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        campaign.out = base.join(&campaign.out);
+        for fit in &mut campaign.fits {
+            *fit = base.join(&*fit);
+            if !fit.is_file() {
+                return Err(ConfigError::Invalid {
+                    message: format!("fit config {} does not exist", fit.display()),
+                    path: path.to_path_buf(),
+                });
+            }
+        }
+        Ok(campaign)
+    }
+
+    /// Parses campaign TOML `text` (`path` names it in errors): at least one fit and one
+    /// seed, distinct fit names (file stems) and seeds. Paths stay as written.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
+        let campaign: Self = crate::config::parse_toml(text, path)?;
         let bad = |message: String| ConfigError::Invalid {
             message,
             path: path.to_path_buf(),
@@ -77,24 +95,18 @@ impl Campaign {
                 "`fits` and `seeds` must each list at least one entry".into()
             ));
         }
-        let base = path.parent().unwrap_or(Path::new("."));
-        campaign.out = base.join(&campaign.out);
         let mut names: Vec<String> = Vec::new();
-        for fit in &mut campaign.fits {
-            *fit = base.join(&*fit);
+        for fit in &campaign.fits {
             let name = fit
                 .file_stem()
                 .map(|s| s.to_string_lossy().to_string())
                 .filter(|s| !s.is_empty())
-                .ok_or_else(|| bad(format!("fit {} has no file name", fit.display())))?;
+                .ok_or_else(|| bad(format!("fit {:?} has no file name", fit.display())))?;
             if names.contains(&name) {
                 return Err(bad(format!(
                     "two fits are named {name:?}: their outputs would share out/{name}; \
                      give the configs distinct file names"
                 )));
-            }
-            if !fit.is_file() {
-                return Err(bad(format!("fit config {} does not exist", fit.display())));
             }
             names.push(name);
         }

@@ -557,6 +557,11 @@ impl FitConfig {
         Ok(config)
     }
 
+    /// Parses TOML `text` (`path` names it in errors; paths inside stay as written).
+    pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
+        parse_toml(text, path)
+    }
+
     /// The yarn model for radius `r` (m): the overrides, and the linear law if asked for.
     pub fn model(&self, r: f64, path: &Path) -> Result<YarnModel, ConfigError> {
         let mut model = self.model.model(r, path)?;

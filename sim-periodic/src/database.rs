@@ -55,6 +55,7 @@ use std::time::Instant;
 
 use nalgebra::Matrix2;
 use rayon::prelude::*;
+use solver::checksum::fnv1a;
 use solver::{DenseEval, DenseNewtonError, DenseNewtonSettings, Probe, StepError, newton_dense};
 
 use crate::coarse::{Coarse, Strain};
@@ -1143,13 +1144,6 @@ fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), GenerationError> {
             path: path.to_path_buf(),
             problem: e.to_string(),
         })
-}
-
-/// FNV-1a, 64 bit (a stable fingerprint, not a cryptographic hash).
-pub(crate) fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
 }
 
 /// `n` samples of `[lo, hi]`, uniform.

@@ -6,7 +6,14 @@
 //! ```text
 //! sim-persistent run scene.toml              # frames in scene-out/ beside the scene file
 //! sim-persistent run scene.toml --out frames # frames in frames/
+//! sim-persistent run scene.toml --resume     # go on from scene-out/checkpoint.bin
 //! ```
+//!
+//! A run checkpoints into `DIR/checkpoint.bin` every `--checkpoint-frames` frames (default
+//! 10; 0: never). After a kill, the same command with `--resume` goes on from the last
+//! checkpoint and ends with the frames of an uninterrupted run, bit for bit
+//! ([`sim_persistent::scene::checkpoint`]); a damaged checkpoint, or one of another scene or
+//! interval, is refused. A run writing a USD cache cannot be resumed.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -37,12 +44,23 @@ enum Command {
         /// Output folder (default: `<scene stem>-out` beside the scene file).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Write a checkpoint every this many frames (0: never).
+        #[arg(long, default_value_t = 10)]
+        checkpoint_frames: usize,
+        /// Go on from the output folder's checkpoint (from the start when there is none).
+        #[arg(long)]
+        resume: bool,
     },
 }
 
 fn main() -> Result<()> {
     match Cli::parse().command {
-        Command::Run { scene, out } => run(scene, out),
+        Command::Run {
+            scene,
+            out,
+            checkpoint_frames,
+            resume,
+        } => run(scene, out, checkpoint_frames, resume),
     }
 }
 
@@ -83,7 +101,11 @@ fn uniaxial(test: &sim_persistent::experiment::UniaxialTest, out: &std::path::Pa
     Ok(())
 }
 
-fn run(path: PathBuf, out: Option<PathBuf>) -> Result<()> {
+fn run(path: PathBuf, out: Option<PathBuf>, checkpoint_frames: usize, resume: bool) -> Result<()> {
+    use sim_persistent::scene::checkpoint;
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let fingerprint = checkpoint::fingerprint(&text, checkpoint_frames);
     let scene = Scene::read(&path)?;
     let out = out.unwrap_or_else(|| {
         let stem = path
@@ -101,12 +123,44 @@ fn run(path: PathBuf, out: Option<PathBuf>) -> Result<()> {
     let frame_interval = every as f64 * run.sim.settings().dt;
     let mut writer = FrameWriter::new(&out, &scene.output, params.radius, frame_interval)?;
     let start = Instant::now();
-    let mut written = writer.write(&run.sim)?;
+    let resumed = if resume {
+        checkpoint::read(&out, fingerprint)?
+    } else {
+        None
+    };
+    let (done, mut written) = match &resumed {
+        Some(c) => {
+            run.resume(c)?;
+            writer.resume_at(c.frames, c.framing)?;
+            eprintln!(
+                "resuming after step {} of {} ({} frames written) from {}",
+                c.steps,
+                scene.steps,
+                c.frames,
+                checkpoint::path(&out).display()
+            );
+            (c.steps, vec![])
+        }
+        None => {
+            if resume {
+                eprintln!(
+                    "no checkpoint in {}: starting from the beginning",
+                    out.display()
+                );
+            }
+            (0, writer.write(&run.sim)?)
+        }
+    };
     let first = written.clone();
-    for k in 1..=scene.steps {
+    for k in done + 1..=scene.steps {
         run.step().with_context(|| format!("step {k}"))?;
         if k % every == 0 {
             written = writer.write(&run.sim)?;
+            let frames = writer.frames_written();
+            if checkpoint_frames > 0 && (frames - 1) % checkpoint_frames == 0 && k < scene.steps {
+                let c = run.checkpoint(k, frames, writer.framing());
+                checkpoint::write(&out, &c, fingerprint)?;
+            }
             eprintln!(
                 "step {k}/{}: t = {:.4} s, kinetic {:.3e} J, potential {:.3e} J, {:.1} s",
                 scene.steps,

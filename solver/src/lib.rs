@@ -72,6 +72,7 @@
 //! ```
 
 pub mod assembly;
+pub mod checksum;
 pub mod constrained;
 pub mod continuation;
 pub mod dense_newton;

@@ -201,6 +201,11 @@ pub fn read_obj_positions(path: &Path, out: &mut Vec<[f64; 3]>) -> Result<()> {
         path: path.to_path_buf(),
         source,
     })?;
+    parse_obj_positions(&text, path, out)
+}
+
+/// [`read_obj_positions`] on the text of `path`.
+pub fn parse_obj_positions(text: &str, path: &Path, out: &mut Vec<[f64; 3]>) -> Result<()> {
     out.clear();
     for (k, raw) in text.lines().enumerate() {
         let content = raw.split('#').next().unwrap_or("");

@@ -272,15 +272,21 @@ impl Database {
         let dir = dir.as_ref();
         let path = dir.join(AXES_FILE);
         let text = std::fs::read_to_string(&path).map_err(|source| io_error(&path, source))?;
-        let axes = parse_axes(&text, &path)?;
-
         let path = dir.join(DATA_FILE);
         let bytes = std::fs::read(&path).map_err(|source| io_error(&path, source))?;
+        Self::parse(&text, &bytes, dir)
+    }
+
+    /// Parses and validates the contents of `axes.txt` (`axes_text`) and `data.npy`
+    /// (`npy`) of a database folder `dir` (named in errors).
+    pub fn parse(axes_text: &str, npy: &[u8], dir: &Path) -> Result<Database, DatabaseError> {
+        let axes = parse_axes(axes_text, &dir.join(AXES_FILE))?;
+        let path = dir.join(DATA_FILE);
         let npy_error = |problem| DatabaseError::Npy {
             path: path.clone(),
             problem,
         };
-        let (rows, data) = parse_npy(&bytes).map_err(npy_error)?;
+        let (rows, data) = parse_npy(npy).map_err(npy_error)?;
         let per_vertex: usize = axes.iter().map(Vec::len).product();
         if rows % per_vertex != 0 {
             return Err(npy_error(NpyProblem::RowsNotDivisible { rows, per_vertex }));

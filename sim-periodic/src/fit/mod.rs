@@ -455,7 +455,7 @@ pub fn fingerprint(
 ) -> String {
     format!(
         "{:016x}",
-        crate::database::fnv1a(
+        solver::checksum::fnv1a(
             format!("{geometry:?}|{targets:?}|{space:?}|{settings:?}|fit-v1").as_bytes()
         )
     )

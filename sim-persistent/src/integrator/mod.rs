@@ -62,11 +62,13 @@
 //!   every contact would get a quarter-turn torque at once.
 
 mod settings;
+mod snapshot;
 mod step;
 
 pub use settings::{
     CARRIED_SHIFT_PROBE_INTERVAL, LINEARIZED_MAX_SHRINK, SimError, StepReport, StepSettings,
 };
+pub use snapshot::Snapshot;
 
 use crate::forces::compression::{CompressionEstimator, NodeCompression};
 use crate::forces::friction::{AnchoredSpring, ParallelSpring};

@@ -240,6 +240,31 @@ impl FrameWriter {
         self.next
     }
 
+    /// The framing the PNG frames share (set by the first PNG frame drawn).
+    pub fn framing(&self) -> Option<Framing> {
+        self.framing
+    }
+
+    /// Continues a run resumed from a checkpoint: the next frame is number `frames`, PNG
+    /// frames keep `framing`. Refused with a USD cache, which streams every frame of the
+    /// run into one file that a checkpoint does not hold.
+    pub fn resume_at(
+        &mut self,
+        frames: usize,
+        framing: Option<Framing>,
+    ) -> Result<(), OutputError> {
+        if self.cache.is_some() {
+            return Err(OutputError::Invalid(
+                "a run writing a USD cache (formats = [\"usd_cache\"]) cannot be resumed: \
+                 the cache holds every frame of the run; rerun it from the start"
+                    .into(),
+            ));
+        }
+        self.next = frames;
+        self.framing = framing;
+        Ok(())
+    }
+
     /// Writes the next frame of `sim` in every format; returns the files written.
     pub fn write(&mut self, sim: &Simulator) -> Result<Vec<PathBuf>, OutputError> {
         let frame = self.next;

@@ -122,6 +122,7 @@
 //! (`yarns.usda`, time-sampled, at one time code per written frame). [`write_obj`] / [`obj_text`] keep the former output:
 //! a `v` line per contact node and an `l` polyline per yarn through its nodes in yarn order.
 
+pub mod checkpoint;
 mod specs;
 
 pub use crate::topology::Fabric;
@@ -190,6 +191,14 @@ pub enum SceneError {
     /// Frame output failed.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// A run's checkpoint file is damaged or belongs to another run ([`checkpoint`]).
+    #[error("checkpoint {path}: {problem}")]
+    Checkpoint {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
 }
 
 /// `output_every` (≥ 1).
