@@ -53,17 +53,17 @@ fn two_yarns_closed_form_is_exact() {
     // Yarn 0 pushed towards yarn 1 by 3 mN, yarn 1 towards yarn 0 by 1 mN: λ = 2 mN.
     let n = V3::z();
     let sys = CompressionSystem::new(&[n], &[n * 3e-3, -n * 1e-3]).unwrap();
-    let (c, e) = (sys.closed_form().unwrap(), sys.nnls());
+    let (c, e) = (sys.closed_form().unwrap(), sys.nnls().unwrap());
     assert!((c[0] - 2e-3).abs() < 1e-15 && (e[0] - 2e-3).abs() < 1e-15);
     // Pulled apart: no compression (non-sticking constraint).
     let sys = CompressionSystem::new(&[n], &[-n * 3e-3, n * 1e-3]).unwrap();
     assert_eq!(sys.closed_form().unwrap()[0], 0.0);
-    assert_eq!(sys.nnls()[0], 0.0);
+    assert_eq!(sys.nnls().unwrap()[0], 0.0);
     // Random two-yarn stacks: both agree.
     let mut rng = Rng(0x5eed_0003);
     for _ in 0..1000 {
         let sys = random_stack(&mut rng, 2);
-        let (c, e) = (sys.closed_form().unwrap(), sys.nnls());
+        let (c, e) = (sys.closed_form().unwrap(), sys.nnls().unwrap());
         assert!((c[0] - e[0]).abs() <= 1e-12 * (1e-3 + e[0].abs()));
     }
 }
@@ -81,7 +81,7 @@ fn stacks_closed_form_vs_exact_nnls() {
         let trials = 2000;
         for _ in 0..trials {
             let sys = random_stack(&mut rng, n);
-            let exact = sys.nnls();
+            let exact = sys.nnls().unwrap();
             assert_kkt(&sys, &exact, 1e-15);
             let closed = sys.closed_form().unwrap();
             if closed.iter().any(|v| *v < 0.0) {
@@ -162,7 +162,7 @@ fn closed_form_matches_nnls_when_no_constraint_is_active() {
                 })
                 .collect();
             let sys = CompressionSystem::new(&normals, &forces).unwrap();
-            let exact = sys.nnls();
+            let exact = sys.nnls().unwrap();
             assert!(
                 (&exact - &lambda).amax() < 1e-12,
                 "NNLS {exact} vs λ {lambda}"
@@ -263,4 +263,33 @@ fn settled_swatch_closed_form_equals_nnls() {
     );
     assert!(4 * positive >= est.len(), "{positive} of {}", est.len());
     assert!(state_diff <= 1e-12, "{state_diff:e}");
+}
+
+/// The QP through clarabel (polished to the exact active set) and the enumeration of the
+/// active sets agree to 1e-10 (relative to the largest λ) on random stacks of 2 to 13 yarns,
+/// and the QP solves taller stacks than the enumeration can, meeting the KKT conditions.
+#[test]
+fn the_compression_qp_matches_the_enumeration_and_takes_any_stack() {
+    let mut rng = Rng(0x5eed_0007);
+    let mut worst = 0.0f64;
+    for n in 2..=13 {
+        for _ in 0..40 {
+            let sys = random_stack(&mut rng, n);
+            let qp = sys.nnls_qp().unwrap();
+            let enumerated = sys.nnls_enumerated().unwrap();
+            let gap = (&qp - &enumerated).amax() / enumerated.amax().max(1e-12);
+            worst = worst.max(gap);
+            assert!(
+                gap < 1e-10,
+                "{n} yarns: QP and enumeration differ by {gap:e}"
+            );
+        }
+    }
+    eprintln!("worst relative QP - enumeration difference: {worst:e}");
+    for n in [20, 40] {
+        let sys = random_stack(&mut rng, n);
+        assert!(sys.nnls_enumerated().is_none());
+        let lambda = sys.nnls().unwrap();
+        assert_kkt(&sys, &lambda, 1e-15);
+    }
 }

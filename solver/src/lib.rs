@@ -13,6 +13,8 @@
 //! | [`roots`] | [`find_root`]: safeguarded 1-D root finding in a sign-change bracket (Newton with a derivative, bisection without); [`secant`]: from one start point without a bracket (secant, Illinois regula falsi once bracketed, clipped steps, retries of failed evaluations) |
 //! | [`dense_newton`] | [`newton_dense`]: Newton for a few equations in as many unknowns (analytic or forward-difference Jacobian, damped steps, loud failure) |
 //! | [`lm`] | [`bounded_lm`]: bounded Levenberg–Marquardt for small least-squares fits (scaled parameters, active set, extra constraints) |
+//! | [`qp`] | [`qp::nonnegative_least_squares`]: small convex QPs through `clarabel` (interior point) with an exact active-set polish |
+//! | [`checksum`] | [`checksum::fnv1a`]: the stable 64-bit checksum of fingerprints and checkpoint files |
 //! | [`continuation`] | [`march`] (load stepping with step halving and growth) and [`bisect`] (recursive halving of a segment) |
 //! | [`validation`] | problems with known answers: [`validation::cantilever`] (a clamped rod under a tip load vs beam theory and the elastica) |
 //!
@@ -82,6 +84,7 @@ pub mod lm;
 pub mod newton;
 mod pattern;
 pub mod pcg;
+pub mod qp;
 pub mod roots;
 pub mod terms;
 pub mod validation;

@@ -19,8 +19,11 @@
 //! ```
 //!
 //! is exact only when the constraints decouple (two yarns, or `AᵀA` diagonal); the exact
-//! answer is a tiny non-negative least-squares problem, solved here by enumerating the
-//! active sets ([`CompressionSystem::nnls`]). Both are kept so they can be compared.
+//! answer is a small non-negative least-squares problem ([`CompressionSystem::nnls`]):
+//! up to [`ENUMERATED_CONTACTS`] contacts (every stack of a knit or a weave) by enumerating
+//! the active sets, which is exact and fastest at that size, and for taller stacks as a QP
+//! through clarabel ([`solver::qp::nonnegative_least_squares`]), with no limit on the stack
+//! size. Eq. 4 and the exact answer are both kept so they can be compared.
 //!
 //! **At the nodes of a simulation** ([`CompressionEstimator`]), for every node with `n ≥ 2`
 //! yarns:
@@ -82,15 +85,20 @@ use rod::bending::AngleBending;
 use rod::geometry::V3;
 use rod::stretch::SlidingSegment;
 
-/// Largest number of contacts in a stack that [`CompressionSystem::nnls`] enumerates
-/// (`2^12` active sets).
-pub const MAX_STACK_CONTACTS: usize = 12;
+/// Stacks of up to this many contacts are solved by enumerating their `2^m` active sets
+/// ([`CompressionSystem::nnls_enumerated`]), taller ones as a QP
+/// ([`CompressionSystem::nnls_qp`]).
+pub const ENUMERATED_CONTACTS: usize = 4;
+
+/// The most contacts [`CompressionSystem::nnls_enumerated`] enumerates (`2^12` active sets),
+/// for comparisons with the QP.
+pub const MAX_ENUMERATED_CONTACTS: usize = 12;
 
 /// A stack that cannot be set up.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum CompressionError {
-    /// Fewer than 2 yarns, more than [`MAX_STACK_CONTACTS`] contacts, mismatched lengths,
-    /// or a zero/non-finite normal or compression direction.
+    /// Fewer than 2 yarns, mismatched lengths, or a zero/non-finite normal or compression
+    /// direction; or the QP of a tall stack failed.
     #[error("invalid stacked contact: {0}")]
     Invalid(String),
 }
@@ -110,9 +118,9 @@ impl CompressionSystem {
     pub fn new(normals: &[V3], forces: &[V3]) -> Result<Self, CompressionError> {
         let m = normals.len();
         let bad = |s: String| Err(CompressionError::Invalid(s));
-        if m == 0 || m > MAX_STACK_CONTACTS || forces.len() != m + 1 {
+        if m == 0 || forces.len() != m + 1 {
             return bad(format!(
-                "{} normals and {} forces (need 1 to {MAX_STACK_CONTACTS} normals and one more force)",
+                "{} normals and {} forces (need at least one normal and one more force)",
                 m,
                 forces.len()
             ));
@@ -168,11 +176,30 @@ impl CompressionSystem {
         ata.cholesky().map(|c| c.solve(&rhs))
     }
 
-    /// The exact minimizer of `½ |A λ + b|²` subject to `λ ≥ 0` (N): the best of the
-    /// unconstrained least-squares solutions on every subset of free contacts whose values
-    /// are non-negative (the optimum's own free set is among them; `λ = 0` is the empty set).
-    pub fn nnls(&self) -> DVector<f64> {
+    /// The exact minimizer of `½ |A λ + b|²` subject to `λ ≥ 0` (N): by enumeration up to
+    /// [`ENUMERATED_CONTACTS`] contacts, as a QP above (module documentation).
+    pub fn nnls(&self) -> Result<DVector<f64>, CompressionError> {
+        match self.a.ncols() {
+            m if m <= ENUMERATED_CONTACTS => Ok(self.nnls_enumerated().expect("small stack")),
+            _ => self.nnls_qp(),
+        }
+    }
+
+    /// [`CompressionSystem::nnls`] as a QP through clarabel, for any number of contacts.
+    pub fn nnls_qp(&self) -> Result<DVector<f64>, CompressionError> {
+        solver::qp::nonnegative_least_squares(&self.a, &self.b)
+            .map_err(|e| CompressionError::Invalid(format!("the compression QP failed: {e}")))
+    }
+
+    /// [`CompressionSystem::nnls`] by enumeration: the best of the unconstrained
+    /// least-squares solutions on every subset of free contacts whose values are
+    /// non-negative (the optimum's own free set is among them; `λ = 0` is the empty set).
+    /// `None` above [`MAX_ENUMERATED_CONTACTS`] contacts.
+    pub fn nnls_enumerated(&self) -> Option<DVector<f64>> {
         let m = self.a.ncols();
+        if m > MAX_ENUMERATED_CONTACTS {
+            return None;
+        }
         let zero = DVector::zeros(m);
         let mut best = (self.objective(&zero), zero);
         for mask in 1u32..(1 << m) {
@@ -194,7 +221,7 @@ impl CompressionSystem {
                 best = (obj, lambda);
             }
         }
-        best.1
+        Some(best.1)
     }
 }
 
@@ -325,13 +352,6 @@ impl CompressionEstimator {
         for (n, node) in topology.nodes.iter().enumerate() {
             if node.passes.len() < 2 {
                 continue;
-            }
-            if node.passes.len() > MAX_STACK_CONTACTS + 1 {
-                return bad(format!(
-                    "node {n} stacks {} yarns, at most {} are supported",
-                    node.passes.len(),
-                    MAX_STACK_CONTACTS + 1
-                ));
             }
             let Some((front_to_back, parallel)) = order[n].take() else {
                 return bad(format!(
@@ -561,7 +581,7 @@ impl CompressionEstimator {
                     node: st.node,
                     layers: st.layers.clone(),
                     parallel: st.parallel.clone(),
-                    nnls: sys.nnls(),
+                    nnls: sys.nnls()?,
                     closed_form,
                     normals,
                     forces: f,

@@ -4,7 +4,7 @@
 //! A checkpoint holds the steps done, the frames written and the PNG framing of the first
 //! frame (so that the frames keep one scale), the simulator's [`Snapshot`] and the nodes the
 //! sticking obstacles hold. Taking one empties the simulator's caches
-//! ([`Simulator::flush_caches`]), which a restored simulator starts without, so the resumed
+//! ([`crate::integrator::Simulator::flush_caches`]), which a restored simulator starts without, so the resumed
 //! run and the uninterrupted one take every step from the same state, bit for bit; for the
 //! same reason the checkpoint interval is part of the run's fingerprint.
 //!
@@ -256,7 +256,7 @@ pub fn fingerprint(scene_text: &str, checkpoint_frames: usize) -> u64 {
     solver::checksum::fnv1a(format!("{scene_text}\u{0}{checkpoint_frames}").as_bytes())
 }
 
-/// Where [`write`] puts the checkpoint of a run writing into `dir`.
+/// Where [`write()`] puts the checkpoint of a run writing into `dir`.
 pub fn path(dir: &Path) -> PathBuf {
     dir.join(CHECKPOINT_FILE)
 }
