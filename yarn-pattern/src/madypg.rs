@@ -385,7 +385,37 @@ fn npy_bytes(rows: &[[f32; 4]]) -> std::io::Result<Vec<u8>> {
 
 /// Parses an `.npy` file (through npyz) holding an `(R, 4)` little-endian `f32` array:
 /// `(R, rows)`.
+/// Checks the header dictionary of a `.npy` file before npyz parses it: ASCII, only the
+/// characters of a plain `{'descr': '<f4', 'fortran_order': False, 'shape': (R, 4), }`
+/// dictionary, and no lists. npyz parses the header as a Python literal with a backtracking
+/// parser that takes exponential time on nested brackets (found by fuzzing: a header of 60
+/// `[` ran past 10 s), and a database never needs them (a structured dtype is refused anyway).
+fn check_npy_header(bytes: &[u8]) -> Result<(), NpyProblem> {
+    let bad = |what: &str| NpyProblem::BadHeader(what.to_string());
+    let body = bytes
+        .strip_prefix(b"\x93NUMPY".as_slice())
+        .ok_or_else(|| bad("no .npy magic string"))?;
+    let (length, start) = match body {
+        [1, _, a, b, ..] => (usize::from(u16::from_le_bytes([*a, *b])), 4usize),
+        [2 | 3, _, a, b, c, d, ..] => (u32::from_le_bytes([*a, *b, *c, *d]) as usize, 6),
+        [major, ..] => return Err(bad(&format!("unsupported format version {major}"))),
+        [] => return Err(bad("truncated before the version")),
+    };
+    let header = body
+        .get(start..start.saturating_add(length))
+        .ok_or_else(|| bad("the header is longer than the file"))?;
+    let allowed = |c: u8| c.is_ascii_alphanumeric() || b"{}'\"():,<>|=_-. \n\t\r".contains(&c);
+    match header.iter().find(|&&c| !allowed(c)) {
+        Some(c) => Err(bad(&format!(
+            "the header dictionary holds {:?}, which a plain float32 array's header never does",
+            char::from(*c)
+        ))),
+        None => Ok(()),
+    }
+}
+
 fn parse_npy(bytes: &[u8]) -> Result<(usize, Vec<[f32; 4]>), NpyProblem> {
+    check_npy_header(bytes)?;
     let mut rest = bytes;
     let npy = npyz::NpyHeader::from_reader(&mut rest)
         .map_err(|e| NpyProblem::BadHeader(e.to_string()))?;

@@ -840,3 +840,44 @@ fn lattice_skew_round_trips_and_is_checked() {
         TileError::Skew { .. }
     ));
 }
+
+/// Regression (fuzzing, target `madypg`): a `.npy` header of nested `[` made npyz's
+/// Python-literal parser backtrack for more than 10 s. Such headers are refused before they
+/// are parsed, quickly and with the file named.
+#[test]
+fn fuzz_timeout_npy_header_with_nested_brackets_is_refused() {
+    let mut header = String::from("{'descr': '<f4', 'fortran_order': False, 'shape': ");
+    header.push_str(&"[".repeat(200));
+    header.push_str("(1, 4), }");
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    bytes.extend_from_slice(header.as_bytes());
+    bytes.extend_from_slice(&[0u8; 16]);
+    let dir = std::path::Path::new("db");
+    let start = std::time::Instant::now();
+    let e = Database::parse("0\n0\n0\n", &bytes, dir).unwrap_err();
+    let message = e.to_string();
+    assert!(
+        matches!(
+            e,
+            DatabaseError::Npy {
+                problem: NpyProblem::BadHeader(_),
+                ..
+            }
+        ),
+        "{message}"
+    );
+    assert!(
+        message.contains("data.npy") && message.contains("'['"),
+        "{message}"
+    );
+    eprintln!("refused in {:?}: {message}", start.elapsed());
+    // A plain header still reads.
+    let plain = "{'descr': '<f4', 'fortran_order': False, 'shape': (1, 4), }";
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    bytes.extend_from_slice(&(plain.len() as u16).to_le_bytes());
+    bytes.extend_from_slice(plain.as_bytes());
+    bytes.extend_from_slice(&[0u8; 16]);
+    let db = Database::parse("0\n0\n0\n", &bytes, dir).unwrap();
+    assert_eq!(db.n_vertices, 1);
+}
