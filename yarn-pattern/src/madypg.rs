@@ -385,11 +385,13 @@ fn npy_bytes(rows: &[[f32; 4]]) -> std::io::Result<Vec<u8>> {
 
 /// Parses an `.npy` file (through npyz) holding an `(R, 4)` little-endian `f32` array:
 /// `(R, rows)`.
-/// Checks the header dictionary of a `.npy` file before npyz parses it: ASCII, only the
-/// characters of a plain `{'descr': '<f4', 'fortran_order': False, 'shape': (R, 4), }`
-/// dictionary, and no lists. npyz parses the header as a Python literal with a backtracking
-/// parser that takes exponential time on nested brackets (found by fuzzing: a header of 60
-/// `[` ran past 10 s), and a database never needs them (a structured dtype is refused anyway).
+/// Checks the header dictionary of a `.npy` file before npyz parses it: at most
+/// [`MAX_NPY_HEADER`] bytes of ASCII, only the characters of a plain
+/// `{'descr': '<f4', 'fortran_order': False, 'shape': (R, 4), }` dictionary, no lists, and
+/// brackets nested at most two deep (the dictionary and its shape tuple). npyz parses the
+/// header as a Python literal with a backtracking parser that takes exponential time on
+/// nested brackets (found by fuzzing: headers of nested `[`, `{` or `(` ran past 10 s), and
+/// a database never needs them (a structured dtype is refused anyway).
 fn check_npy_header(bytes: &[u8]) -> Result<(), NpyProblem> {
     let bad = |what: &str| NpyProblem::BadHeader(what.to_string());
     let body = bytes
@@ -401,18 +403,41 @@ fn check_npy_header(bytes: &[u8]) -> Result<(), NpyProblem> {
         [major, ..] => return Err(bad(&format!("unsupported format version {major}"))),
         [] => return Err(bad("truncated before the version")),
     };
+    if length > MAX_NPY_HEADER {
+        return Err(bad(&format!(
+            "a header of {length} bytes; a float32 array's takes about 128 (at most \
+             {MAX_NPY_HEADER} are read)"
+        )));
+    }
     let header = body
-        .get(start..start.saturating_add(length))
+        .get(start..start + length)
         .ok_or_else(|| bad("the header is longer than the file"))?;
     let allowed = |c: u8| c.is_ascii_alphanumeric() || b"{}'\"():,<>|=_-. \n\t\r".contains(&c);
-    match header.iter().find(|&&c| !allowed(c)) {
-        Some(c) => Err(bad(&format!(
+    if let Some(c) = header.iter().find(|&&c| !allowed(c)) {
+        return Err(bad(&format!(
             "the header dictionary holds {:?}, which a plain float32 array's header never does",
             char::from(*c)
-        ))),
-        None => Ok(()),
+        )));
     }
+    let mut depth = 0usize;
+    for &c in header {
+        match c {
+            b'{' | b'(' => depth += 1,
+            b'}' | b')' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+        if depth > 2 {
+            return Err(bad(
+                "brackets nested more than two deep; a float32 array's header holds a \
+                 dictionary and its shape tuple",
+            ));
+        }
+    }
+    Ok(())
 }
+
+/// The longest `.npy` header [`check_npy_header`] accepts (bytes).
+const MAX_NPY_HEADER: usize = 4096;
 
 fn parse_npy(bytes: &[u8]) -> Result<(usize, Vec<[f32; 4]>), NpyProblem> {
     check_npy_header(bytes)?;
