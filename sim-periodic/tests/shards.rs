@@ -148,6 +148,22 @@ fn a_database_shard_killed_mid_way_reruns_to_the_single_run_bytes() {
         .output()
         .unwrap());
 
+    // The plain (unsharded) run killed mid-way and rerun gives the same bytes too.
+    let single = std::fs::read_to_string(dir.join("single.toml")).unwrap();
+    let killed = dir.join("killed.toml");
+    std::fs::write(&killed, single.replace("\"single\"", "\"killed\"")).unwrap();
+    let killed_checkpoint = dir.join("killed").join("checkpoint");
+    let mut run = bin();
+    run.arg("database").arg(&killed);
+    kill_when(run, || count_files(&killed_checkpoint, ".bin") >= 10);
+    let out = ok(sim("database", &killed, &[]));
+    assert!(!out.contains("(0 resumed)"), "{out}");
+    for file in ["database/axes.txt", "database/data.npy"] {
+        let a = std::fs::read(dir.join("single").join(file)).unwrap();
+        let b = std::fs::read(dir.join("killed").join(file)).unwrap();
+        assert!(a == b, "{file} differs after the kill and rerun");
+    }
+
     let sharded = dir.join("sharded.toml");
     let checkpoint = dir.join("sharded").join("checkpoint");
     // Shard 1 of 3 is killed once it has checkpointed a few samples, then rerun.
