@@ -114,17 +114,19 @@ impl ModelConfig {
             *k1 = m.k1.unwrap_or(*k1);
             *k2 = m.k2.unwrap_or(*k2);
             *onset = m.onset.unwrap_or(*onset);
-            if !(*k1 > 0.0 && *k2 > 0.0 && *onset >= 0.0) {
+            let finite = k1.is_finite() && k2.is_finite() && onset.is_finite();
+            if !(finite && *k1 > 0.0 && *k2 > 0.0 && *onset >= 0.0) {
                 return bad(format!(
-                    "[model] needs k1 > 0, k2 > 0, onset >= 0 (got {k1}, {k2}, {onset})"
+                    "[model] needs finite k1 > 0, k2 > 0, onset >= 0 (got {k1}, {k2}, {onset})"
                 ));
             }
         }
         model.bending = m.bending.unwrap_or(model.bending);
         model.twist = m.twist.unwrap_or(model.twist);
-        if !(model.bending > 0.0 && model.twist >= 0.0) {
+        let finite = model.bending.is_finite() && model.twist.is_finite();
+        if !(finite && model.bending > 0.0 && model.twist >= 0.0) {
             return bad(format!(
-                "[model] needs bending > 0 and twist >= 0 (got {}, {})",
+                "[model] needs finite bending > 0 and twist >= 0 (got {}, {})",
                 model.bending, model.twist
             ));
         }
@@ -351,6 +353,49 @@ impl Config {
     /// Parses TOML `text` (`path` names it in errors).
     pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
         parse_toml(text, path)
+    }
+
+    /// Checks the values the parser cannot: `[solver]` tolerances finite and positive and an
+    /// iteration cap ≥ 1, `[database]` axes non-empty, finite and strictly increasing (as the
+    /// database format requires). Errors name the file and the key. `[model]` is checked by
+    /// [`Config::model`], `[curve]` by [`Config::curve`].
+    pub fn validate(&self, path: &Path) -> Result<(), ConfigError> {
+        let bad = |message: String| ConfigError::Invalid {
+            message,
+            path: path.to_path_buf(),
+        };
+        let s = &self.solver;
+        for (key, value) in [
+            ("gradient_abs_tol", s.gradient_abs_tol),
+            ("gradient_rel_tol", s.gradient_rel_tol),
+        ] {
+            if let Some(v) = value.filter(|v| !(v.is_finite() && *v > 0.0)) {
+                return Err(bad(format!(
+                    "[solver] {key} must be a finite tolerance > 0, found {v}"
+                )));
+            }
+        }
+        if s.max_iterations == Some(0) {
+            return Err(bad("[solver] max_iterations must be at least 1".into()));
+        }
+        let d = &self.database;
+        for (key, axis) in [("sx", &d.sx), ("sa", &d.sa), ("sy", &d.sy)] {
+            let values = axis.values();
+            if values.is_empty() {
+                return Err(bad(format!("[database] {key} has no samples")));
+            }
+            if let Some(v) = values.iter().find(|v| !v.is_finite()) {
+                return Err(bad(format!(
+                    "[database] {key} holds {v}; expected finite strains"
+                )));
+            }
+            if values.windows(2).any(|w| w[1] <= w[0]) {
+                return Err(bad(format!(
+                    "[database] {key} = {values:?} must be strictly increasing"
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// The yarn model for yarn radius `r` (m) with the overrides applied.
@@ -596,6 +641,25 @@ impl FitConfig {
             return Err(bad(format!(
                 "[fit] comfort_stress must be positive (N/m), found {}",
                 f.comfort_stress
+            )));
+        }
+        if f.swarm && (f.particles < 2 || f.restarts < 1) {
+            return Err(bad(format!(
+                "[fit] a swarm needs particles ≥ 2 and restarts ≥ 1, found particles = {}, \
+                 restarts = {}",
+                f.particles, f.restarts
+            )));
+        }
+        if !f.inertia.iter().all(|w| w.is_finite()) {
+            return Err(bad(format!(
+                "[fit] inertia must be finite, found {:?}",
+                f.inertia
+            )));
+        }
+        if f.local_evaluations < 1 || f.local_starts < 1 {
+            return Err(bad(format!(
+                "[fit] local_evaluations and local_starts must be at least 1, found {} and {}",
+                f.local_evaluations, f.local_starts
             )));
         }
         let curve = crate::curves::CurveSettings {

@@ -123,6 +123,7 @@ struct Setup {
 
 fn setup(path: &Path) -> Result<Setup> {
     let config = Config::read(path)?;
+    config.validate(path)?;
     let read = read_pyp(&config.tile)?;
     for block in &read.defaulted {
         eprintln!(

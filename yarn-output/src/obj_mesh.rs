@@ -113,6 +113,13 @@ pub fn parse_obj(text: &str, path: &Path, uv: Uv) -> Result<ObjMesh> {
         match tokens.next() {
             Some("v") => {
                 let p = parse_floats::<3>(&mut tokens, path, line, "v")?;
+                if !p.iter().all(|x| x.is_finite()) {
+                    return Err(mesh_error(
+                        path,
+                        line,
+                        format!("`v`: expected finite coordinates, found {p:?}"),
+                    ));
+                }
                 mesh.positions.push(p);
             }
             Some("vt") if uv == Uv::Required => {

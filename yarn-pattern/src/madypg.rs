@@ -122,6 +122,14 @@ pub enum NpyProblem {
         /// The `descr` found.
         found: String,
     },
+    /// A displacement is NaN or infinite.
+    #[error("expected finite displacements, found {value} in row {row}")]
+    NonFinite {
+        /// 0-based row.
+        row: usize,
+        /// The value.
+        value: f32,
+    },
     /// The array is stored in Fortran (column-major) order.
     #[error("expected 'fortran_order': False (row-major data), found True")]
     FortranOrder,
@@ -473,6 +481,12 @@ fn parse_npy(bytes: &[u8]) -> Result<(usize, Vec<[f32; 4]>), NpyProblem> {
     let values = npyz::NpyFile::with_header(npy, rest)
         .into_vec::<f32>()
         .map_err(|e| NpyProblem::BadHeader(e.to_string()))?;
+    if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+        return Err(NpyProblem::NonFinite {
+            row: k / 4,
+            value: values[k],
+        });
+    }
     let data = values
         .chunks_exact(4)
         .map(|c| [c[0], c[1], c[2], c[3]])

@@ -215,7 +215,7 @@ fn de_output_every<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<usiz
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     /// Time step (s).
-    #[serde(default = "default_dt")]
+    #[serde(default = "default_dt", deserialize_with = "specs::de_positive")]
     pub dt: f64,
     /// Re-solves per step of the friction return mapping
     /// ([`StepSettings::friction_return_mapping`]; 0: explicit anchor update).

@@ -161,6 +161,36 @@ pub(super) fn de_pattern<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Patte
     }
 }
 
+/// A finite number `> 0` (a size, a modulus, a time step): refused at the value otherwise, so
+/// that the error names its line.
+pub(super) fn de_positive<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(serde::de::Error::custom(format!(
+            "expected a finite number > 0, found {v}"
+        )))
+    }
+}
+
+/// [`de_positive`] for an optional key.
+fn de_opt_positive<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    de_positive(d).map(Some)
+}
+
+/// A finite number `≥ 0` for an optional key (a damping or friction coefficient).
+fn de_opt_non_negative<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v.is_finite() && v >= 0.0 {
+        Ok(Some(v))
+    } else {
+        Err(serde::de::Error::custom(format!(
+            "expected a finite number ≥ 0, found {v}"
+        )))
+    }
+}
+
 /// `[yarn]`: a Table 1 preset with optional overrides (SI units).
 #[derive(Clone, Debug, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -168,26 +198,36 @@ pub struct YarnSpec {
     /// `sweater` (default), `shirt` or `pullover`.
     pub preset: Option<String>,
     /// Yarn radius (m).
+    #[serde(default, deserialize_with = "de_opt_positive")]
     pub radius: Option<f64>,
     /// Young modulus (Pa).
+    #[serde(default, deserialize_with = "de_opt_positive")]
     pub young_modulus: Option<f64>,
     /// Bending modulus B of Table 1.
+    #[serde(default, deserialize_with = "de_opt_positive")]
     pub bending_modulus: Option<f64>,
     /// Linear density (kg/m).
+    #[serde(default, deserialize_with = "de_opt_positive")]
     pub linear_density: Option<f64>,
     /// Wrapping stiffness `k_w` (N).
+    #[serde(default, deserialize_with = "de_opt_positive")]
     pub wrapping_stiffness: Option<f64>,
     /// A constant friction slip force (N) instead of the Coulomb bound `μ λ`.
+    #[serde(default, deserialize_with = "de_opt_non_negative")]
     pub friction_max_force: Option<f64>,
     /// Friction coefficient μ (Eq. 5; default 0.3).
+    #[serde(default, deserialize_with = "de_opt_non_negative")]
     pub friction_coefficient: Option<f64>,
     /// Loop width of the layout (m; default the preset's Table 1 value).
+    #[serde(default, deserialize_with = "de_opt_positive")]
     pub loop_width: Option<f64>,
     /// Row height of a knit's layout (m; default the loop width).
+    #[serde(default, deserialize_with = "de_opt_positive")]
     pub row_height: Option<f64>,
     /// Yarn per loop of a knit's layout (m; the stitch length): the layout's out-of-plane
     /// offset is solved for it ([`crate::layout::LayoutParams::with_loop_length`]). Default:
     /// none, the offset is a quarter of the radius.
+    #[serde(default, deserialize_with = "de_opt_positive")]
     pub loop_length: Option<f64>,
     /// A knit's gauge in knitters' units (`gauge = { stitches = 18, rows = 34,
     /// stitch_length_mm = 14.0 }`): it sets the loop width, row height and yarn per loop
@@ -215,8 +255,10 @@ pub struct KnitGaugeSpec {
 #[serde(deny_unknown_fields)]
 pub struct DampingSpec {
     /// Mass damping α (1/s).
+    #[serde(default, deserialize_with = "de_opt_non_negative")]
     pub alpha: Option<f64>,
     /// Stiffness damping β (s).
+    #[serde(default, deserialize_with = "de_opt_non_negative")]
     pub beta: Option<f64>,
 }
 
