@@ -356,8 +356,8 @@ impl Config {
     }
 
     /// Checks the values the parser cannot: `[solver]` tolerances finite and positive and an
-    /// iteration cap ≥ 1, `[database]` axes non-empty, finite and strictly increasing (as the
-    /// database format requires). Errors name the file and the key. `[model]` is checked by
+    /// iteration cap ≥ 1, `[database]` axes as the database format requires
+    /// ([`yarn_pattern::madypg::Database::validate`]). Errors name the file and the key. `[model]` is checked by
     /// [`Config::model`], `[curve]` by [`Config::curve`].
     pub fn validate(&self, path: &Path) -> Result<(), ConfigError> {
         let bad = |message: String| ConfigError::Invalid {
@@ -378,23 +378,15 @@ impl Config {
         if s.max_iterations == Some(0) {
             return Err(bad("[solver] max_iterations must be at least 1".into()));
         }
+        // The axes as the database format checks them (non-empty, finite, increasing).
         let d = &self.database;
-        for (key, axis) in [("sx", &d.sx), ("sa", &d.sa), ("sy", &d.sy)] {
-            let values = axis.values();
-            if values.is_empty() {
-                return Err(bad(format!("[database] {key} has no samples")));
-            }
-            if let Some(v) = values.iter().find(|v| !v.is_finite()) {
-                return Err(bad(format!(
-                    "[database] {key} holds {v}; expected finite strains"
-                )));
-            }
-            if values.windows(2).any(|w| w[1] <= w[0]) {
-                return Err(bad(format!(
-                    "[database] {key} = {values:?} must be strictly increasing"
-                )));
-            }
+        yarn_pattern::madypg::Database {
+            axes: [d.sx.values(), d.sa.values(), d.sy.values()],
+            n_vertices: 0,
+            data: vec![],
         }
+        .validate()
+        .map_err(|e| bad(format!("[database]: {e}")))?;
         Ok(())
     }
 

@@ -1132,18 +1132,12 @@ impl Checkpoint {
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file of this process and a rename, so that a
-/// reader (another shard, a resumed run) sees the whole file or none of it.
+/// [`crate::shard::write_atomically`] with the error of a checkpoint.
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), GenerationError> {
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(format!(".{}.tmp", std::process::id()));
-    let tmp = PathBuf::from(tmp);
-    std::fs::write(&tmp, bytes)
-        .and_then(|()| std::fs::rename(&tmp, path))
-        .map_err(|e| GenerationError::Checkpoint {
-            path: path.to_path_buf(),
-            problem: e.to_string(),
-        })
+    crate::shard::write_atomically(path, bytes).map_err(|e| GenerationError::Checkpoint {
+        path: path.to_path_buf(),
+        problem: e.to_string(),
+    })
 }
 
 /// `n` samples of `[lo, hi]`, uniform.

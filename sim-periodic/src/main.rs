@@ -425,7 +425,7 @@ fn run_campaign(path: &Path, shard: Option<Shard>, merge: Option<usize>) -> Resu
         failed
     } else {
         let shard = shard.unwrap_or(Shard::ALL);
-        let mut failed = Vec::new();
+        let (mut failed, mut failed_numbers) = (Vec::new(), Vec::new());
         let owned: Vec<_> = tasks.iter().filter(|t| shard.owns(t.number)).collect();
         for task in &owned {
             eprintln!(
@@ -445,6 +445,7 @@ fn run_campaign(path: &Path, shard: Option<Shard>, merge: Option<usize>) -> Resu
                     "{}: {} seed {}: {e:#}",
                     task.number, task.name, task.seed
                 ));
+                failed_numbers.push(task.number);
             }
         }
         if shard != Shard::ALL {
@@ -467,10 +468,7 @@ fn run_campaign(path: &Path, shard: Option<Shard>, merge: Option<usize>) -> Resu
             );
             return Ok(());
         }
-        failed
-            .iter()
-            .filter_map(|f| f.split(':').next()?.parse().ok())
-            .collect()
+        failed_numbers
     };
     let rows = sim_periodic::campaign::merge(&campaign, &failed)?;
     println!(

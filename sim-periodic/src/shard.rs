@@ -138,15 +138,19 @@ pub fn write_completion(dir: &Path, completion: &Completion) -> Result<(), Shard
         problem: e,
     };
     let text = serde_json::to_string_pretty(completion).map_err(|e| problem(e.to_string()))?;
-    let tmp = dir.join(format!(
-        ".{}.{}.tmp",
-        shard.record_name(),
-        std::process::id()
-    ));
-    std::fs::create_dir_all(dir).map_err(|e| problem(e.to_string()))?;
-    std::fs::write(&tmp, text + "\n")
-        .and_then(|()| std::fs::rename(&tmp, &path))
+    std::fs::create_dir_all(dir)
+        .and_then(|()| write_atomically(&path, (text + "\n").as_bytes()))
         .map_err(|e| problem(e.to_string()))
+}
+
+/// Writes `bytes` to `path` through a temporary file of this process and a rename, so that a
+/// reader (another shard, a resumed run) sees the whole file or none of it, and shards
+/// writing the same file at once do not mix their bytes.
+pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(format!(".{}.tmp", std::process::id()));
+    let tmp = PathBuf::from(tmp);
+    std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path))
 }
 
 /// Reads the completion records of all `count` shards of a `kind` run in `dir`, in shard

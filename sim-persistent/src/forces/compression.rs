@@ -21,7 +21,7 @@
 //! is exact only when the constraints decouple (two yarns, or `AᵀA` diagonal); the exact
 //! answer is a small non-negative least-squares problem ([`CompressionSystem::nnls`]):
 //! up to [`ENUMERATED_CONTACTS`] contacts (every stack of a knit or a weave) by enumerating
-//! the active sets, which is exact and fastest at that size, and for taller stacks as a QP
+//! the active sets (exact, with no iterations or tolerances), and for taller stacks as a QP
 //! through clarabel ([`solver::qp::nonnegative_least_squares`]), with no limit on the stack
 //! size. Eq. 4 and the exact answer are both kept so they can be compared.
 //!
