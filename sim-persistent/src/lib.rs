@@ -42,22 +42,23 @@
 //!   mapping ([`integrator::StepSettings::friction_return_mapping`], with
 //!   [`forces::segment_floor`]) removes that but is slower and opt-in ([`forces::friction`],
 //!   `persistent-time-vs-error`, the `friction_dt` example).
-//! - **Curl** (`tests/curl.rs`, `curl`): the model reproduces the senses of stockinette curl
-//!   (side edges to the back, cast-on and bind-off edges to the front), but with the paper's
-//!   fixed quarter-turn wrapping rest angle the rolls are tight: wrapping dominates bending
-//!   until jamming, and a swatch rolls mainly along its longer direction. Rib compresses in
-//!   width. Garter knitted with one yarn per row is flat only in its interior: the row ends
-//!   tied to the fabric let more wrapping pairs near the edges keep both wings, so the
-//!   alternating wrapping moments do not cancel there; knitted with one continuous yarn
-//!   ([`topology::Construction::Flat`], as garter is knitted) its edges stay flat, and the
-//!   `curl` figure uses it. Contact between adjacent loops ([`forces::loop_contact`]) reduces
-//!   garter's edge roll but also stockinette's side curl, so it is off by default.
-//! - **Fidelity** (`knit-fidelity`, `tests/knit_fidelity.rs`): under the paper's model free
-//!   swatches roll through themselves; yarn self-contact with the layout wrapping rest state
-//!   ([`params::WrappingRest::Layout`]) keeps yarns apart and edges curling the right way,
-//!   both opt-in. Laid out at a relaxed tile's gauge, the layout's straight segments between
-//!   stitch contacts can hold the tile's yarn only with joints past the bending-jamming
-//!   onset; the fabric relaxes them by flattening, which lengthens its rows.
+//! - **Curl** (`tests/curl.rs`, `curl`): the default model reproduces the senses of
+//!   stockinette curl (side edges to the back, cast-on and bind-off edges to the front) with
+//!   loose rolls (about a radian over a few loops at the default wrapping bias); garter stays
+//!   flat in its interior and at its middle boundary, with a twist near its cast-on and
+//!   bind-off. Rib does not fold at the default bias (its ribs turn by ±0.1 rad); under the
+//!   paper's fixed quarter turn ([`params::WrappingRest::paper`]) it compresses in width, but
+//!   free stockinette rolls into a rod and through itself. Contact between adjacent loops
+//!   ([`forces::loop_contact`]) is off by default.
+//! - **Fidelity** (`knit-fidelity`, `tests/knit_fidelity.rs`): the defaults are the layout
+//!   wrapping rest state ([`params::WrappingRest::Layout`]) and yarn self-contact
+//!   ([`forces::yarn_contact`]), which keep yarns apart and edges curling the right way; the
+//!   paper's reading stays available for comparison. The Table 1 layouts (3 mm loops for a
+//!   1.5 mm yarn) start crowded, with unstitched segments 0.65 d apart: contact ramps in
+//!   over the settling phase ([`integrator`]) and opens the fabric by about a third. Laid
+//!   out at a relaxed tile's gauge, the layout's straight segments between stitch contacts
+//!   can hold the tile's yarn only with joints past the bending-jamming onset; the fabric
+//!   relaxes them by flattening, which lengthens its rows.
 //! - The rest-shape compensation of [`rest_shape`] does not yet start layouts closer to rest
 //!   than the flat layout (measured there).
 

@@ -78,9 +78,13 @@ pub enum WrappingRest {
 }
 
 impl Default for WrappingRest {
-    /// The paper's fixed quarter turn ([`WrappingRest::paper`]).
+    /// The layout's angles with the default bias, `Layout { wrap: DEFAULT_WRAP_BIAS }`: the
+    /// rest state a free fabric can reach (the paper's fixed quarter turn rolls a free
+    /// stockinette into a rod from our unwrapped layouts; [`WrappingRest::paper`] keeps it).
     fn default() -> Self {
-        Self::paper()
+        Self::Layout {
+            wrap: DEFAULT_WRAP_BIAS,
+        }
     }
 }
 
@@ -155,8 +159,8 @@ pub struct YarnParams {
     /// labelled Pa; Eq. 2 (`V = ½ k_w L (ψ − ψ₀)²` with `L` in m) needs N for `V` in J, so
     /// the Table 1 number is read as N (no `π R²` factor: the paper gives none for `k_w`).
     pub wrapping_stiffness: f64,
-    /// Where the stitch-wrapping rest angles ψ₀ of Eq. 2 come from. Default: the paper's
-    /// fixed quarter turn ([`WrappingRest::paper`]).
+    /// Where the stitch-wrapping rest angles ψ₀ of Eq. 2 come from. Default: the layout's
+    /// angles with the bias [`DEFAULT_WRAP_BIAS`] ([`WrappingRest::default`]).
     pub wrapping_rest: WrappingRest,
     /// Stiffness `k_c` of the contact between adjacent loops
     /// ([`crate::forces::loop_contact`], `V = k_c/3 (2R − d)³`, N/m²). Not in the paper;

@@ -489,10 +489,11 @@ fn folded_stitches_wrap_with_the_rest_angle_sign() {
     assert_eq!(checked, 2 * topo.stitch_contacts.len() - 2 * 3);
 }
 
-/// The energy is Eq. 2 times the degenerate-wing weight, `½ k_w L w (ψ − ψ₀)²`, with ψ
-/// from the cross-product form of Eqs. 9–13 (the stencil itself evaluates it through dot and
-/// triple products), and the weight is ≈ 1 for well-opened wings and vanishes as a wing
-/// collapses onto the axis.
+/// The energy is Eq. 2 blended by the degenerate-wing weight with the energy of an
+/// unwrapped pair, `½ k_w L (w (ψ − ψ₀)² + (1 − w) ψ₀²)`, with ψ from the cross-product
+/// form of Eqs. 9–13 (the stencil itself evaluates it through dot and triple products); the
+/// weight is ≈ 1 for well-opened wings and vanishes as a wing collapses onto the axis, where
+/// the energy tends to `½ k_w L ψ₀²` (collapsing a wing sheds no wrapping energy).
 #[test]
 fn wrapping_energy_is_weighted_eq2() {
     let s = StitchWrap {
@@ -505,13 +506,20 @@ fn wrapping_energy_is_weighted_eq2() {
     ];
     let q = SVector::<f64, 12>::from_column_slice(&x);
     let psi = StitchWrap::angle(&x);
-    let expected = 0.5 * 1e-2 * 0.7e-3 * StitchWrap::weight(&x) * (psi - 1.2).powi(2);
+    let w = StitchWrap::weight(&x);
+    let expected = 0.5 * 1e-2 * 0.7e-3 * (w * (psi - 1.2).powi(2) + (1.0 - w) * 1.2 * 1.2);
     assert!((rod::Stencil::energy(&s, &q) - expected).abs() <= 1e-14 * expected);
     // Perpendicular wings: weight 1; a wing along the axis: weight 0.
     let open: [f64; 12] = [0., 0., 0., 0., 0., 1., 1., 0., 0., 0., 1., 1.];
     assert!((StitchWrap::weight(&open) - 1.0).abs() < 1e-14);
     let collapsed: [f64; 12] = [0., 0., 0., 0., 0., 1., 0., 0., -1., 0., 1., 1.];
     assert!(StitchWrap::weight(&collapsed).abs() < 1e-14);
+    let unwrapped = 0.5 * 1e-2 * 0.7e-3 * 1.2 * 1.2;
+    let at_collapse = rod::Stencil::energy(&s, &SVector::<f64, 12>::from_column_slice(&collapsed));
+    assert!(
+        (at_collapse - unwrapped).abs() <= 1e-12 * unwrapped,
+        "{at_collapse}"
+    );
 }
 
 /// Yarn self-contact ([`sim_persistent::forces::yarn_contact`]) on a 4 × 4 stockinette laid

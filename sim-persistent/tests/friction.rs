@@ -422,11 +422,15 @@ fn dynamic_pull(dt: f64, return_mapping: usize, travel: f64) -> (f64, usize, usi
     params.gravity *= 0.0;
     let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).unwrap();
     // Coulomb-consistent friction needs the terms that stop segments from draining and
-    // adjacent loops from merging (see `sim_persistent::forces::segment_floor`).
+    // adjacent loops from merging (see `sim_persistent::forces::segment_floor`). Yarn
+    // self-contact is left out: this compares friction updates on one fixed model, and the
+    // static solve from the crowded Table 1 layout (unstitched segments 0.65 d apart) would
+    // start inside the contact ramp's reduced radii (`sim_persistent::integrator`).
     let forces = ForceSet {
         wrapping: false,
         loop_contact: true,
         segment_floor: true,
+        yarn_contact: false,
         ..ForceSet::default()
     };
     let mut settings = StepSettings {
@@ -516,6 +520,12 @@ fn damped_linearized_steps_follow_the_full_newton_pull() {
             ..SwatchSettings::default()
         };
         s.forces.loop_contact = true;
+        // The linearized steps are compared on the model this test was measured on; yarn
+        // self-contact (default on) pushes the crowded Table 1 rib apart while it settles and
+        // stretches its yarn under the pull (peak 8 N instead of 6 mN), which is the
+        // rib-stretch figure's subject, not the linearization's.
+        s.forces.yarn_contact = false;
+        s.params.wrapping_rest = sim_persistent::params::WrappingRest::paper();
         s
     };
     let rib = RibStretch {

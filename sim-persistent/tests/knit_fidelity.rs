@@ -145,3 +145,45 @@ fn the_papers_quarter_turn_rolls_a_flat_layout_through_itself() {
         r.end.contacts
     );
 }
+
+/// The settling ramp of yarn self-contact (`sim_persistent::integrator`, *contact ramp*):
+/// the crowded Table 1 layout of a stockinette (unstitched segments 0.65 d apart) starts
+/// with zero contact energy and no excluded pair; a shaped chart's flat layout, whose
+/// leaning decrease legs cross their neighbours, excludes those crossings from contact and
+/// still starts with zero contact energy.
+#[test]
+fn contact_ramps_in_from_the_layout() {
+    use sim_persistent::forces::{ForceSet, TermKind};
+    use sim_persistent::integrator::{Simulator, StepSettings};
+    use sim_persistent::layout::{Layout, LayoutParams};
+    use sim_persistent::params::YarnParams;
+    use sim_persistent::topology::{Construction, Topology};
+    let start = |chart: &Chart| {
+        let topo = Topology::knit_with(chart, Construction::Flat).unwrap();
+        let params = YarnParams::sweater();
+        let layout = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).unwrap();
+        let sim = Simulator::new(
+            topo,
+            &layout,
+            params,
+            ForceSet::default(),
+            StepSettings::default(),
+        )
+        .unwrap();
+        let contact: f64 = sim
+            .energy_by_kind()
+            .iter()
+            .filter(|(k, _)| *k == TermKind::YarnContact)
+            .map(|(_, e)| e)
+            .sum();
+        let terms = sim.static_terms().count(TermKind::YarnContact);
+        (contact, terms, sim.crossed_contact_pairs())
+    };
+    let (energy, terms, crossed) = start(&Chart::stockinette(6, 6).unwrap());
+    assert_eq!((energy, crossed), (0.0, 0));
+    assert!(terms > 0, "the close pairs are in the list");
+    let shaped = Chart::parse("K9\nK M1L K7 M1R K\nK2 K2TOG K3 SSK K2\nK9\n").unwrap();
+    let (energy, _, crossed) = start(&shaped);
+    assert_eq!(energy, 0.0);
+    assert!(crossed > 0, "the decreases' legs cross in the flat layout");
+}

@@ -424,3 +424,43 @@ fn construction_and_shaped_chart_errors() {
         "{e}"
     );
 }
+
+/// `[yarn] wrapping_rest` and `wrapping_bias` reach the parameters: the default is the
+/// layout rest state with the default bias, `"paper"` the fixed quarter turn; a bias with
+/// `"paper"` is refused, an unknown rest state and a negative bias are parse errors at their
+/// line.
+#[test]
+fn wrapping_rest_keys_reach_the_parameters() {
+    use sim_persistent::params::{DEFAULT_WRAP_BIAS, WrappingRest};
+    let scene = |yarn: &str| {
+        format!(
+            "steps = 1\n[pattern]\nbuilder = \"garter\"\nwidth = 4\nheight = 4\n[yarn]\n{yarn}\n"
+        )
+    };
+    let rest = |yarn: &str| parse(&scene(yarn)).unwrap().yarn().unwrap().0.wrapping_rest;
+    assert_eq!(
+        rest(""),
+        WrappingRest::Layout {
+            wrap: DEFAULT_WRAP_BIAS
+        }
+    );
+    assert_eq!(rest("wrapping_rest = \"paper\""), WrappingRest::paper());
+    assert_eq!(
+        rest("wrapping_rest = \"layout\"\nwrapping_bias = 0.05"),
+        WrappingRest::Layout { wrap: 0.05 }
+    );
+    let e = parse(&scene("wrapping_rest = \"paper\"\nwrapping_bias = 0.1"))
+        .unwrap()
+        .yarn()
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("wrapping_bias"), "{e}");
+    assert_parse_error(&scene("wrapping_rest = \"rolled\""), 7, "layout");
+    assert_parse_error(&scene("wrapping_bias = -0.1"), 7, "≥ 0");
+    assert!(
+        parse(&scene("wrapping_bias = 4.0"))
+            .unwrap()
+            .yarn()
+            .is_err()
+    );
+}

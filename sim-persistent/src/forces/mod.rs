@@ -87,7 +87,7 @@ pub struct ForceSet {
     pub segment_floor: bool,
     /// Yarn self-contact between segments that are not stitched together
     /// ([`yarn_contact`], ours; parameters [`yarn_contact::YarnContact::for_yarn`]): without
-    /// it nothing keeps a curling or folding fabric from passing through itself. Default off.
+    /// it nothing keeps a curling or folding fabric from passing through itself. Default on.
     pub yarn_contact: bool,
 }
 
@@ -105,7 +105,7 @@ impl Default for ForceSet {
             crossing_shear_params: CrossingShearParams::default(),
             loop_contact: false,
             segment_floor: true,
-            yarn_contact: false,
+            yarn_contact: true,
         }
     }
 }

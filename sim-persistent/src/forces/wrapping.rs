@@ -30,17 +30,23 @@
 //! `v_b = 0`: the yarn runs straight through the contact, with no wrapping plane), and its
 //! gradient grows like `1/|v_a|` there (Eq. 14). This happens at the side edges, where the
 //! upper yarn of a contact is tied off (one yarn per row, see [`crate::topology`]) and the
-//! lower yarn's bending turns the contact axis into its leg. We therefore weight Eq. 2 by
-//! `w = (1 + c²)² s_a² s_b² / ((s_a² + c²)(s_b² + c²))`, with `s_a`, `s_b` the sines of the
-//! angles between each wing (`x₄ − x₀`, `x₃ − x₁`) and the axis and `c` =
-//! [`DEGENERATE_WING_SIN`]: `w = 1` for wings perpendicular to the axis, `w ≥ 0.98` at 45°,
-//! and `w → 0` like `s²` as a wing collapses, so that the energy and its gradient stay
-//! bounded and continuous. This weight is ours, not the paper's. It also opens an escape:
-//! a pair whose rest angle cannot be reached can shed its energy by collapsing a wing, and
-//! in settled free swatches 20–35 % of the pairs do (the curl tests print the fraction).
-//! Without the weight the same configurations make Newton fail (the energy jumps across the
-//! degenerate set); contact between adjacent loops, which would keep the wings open, is not
-//! implemented.
+//! lower yarn's bending turns the contact axis into its leg. We therefore blend Eq. 2 with
+//! the energy of an unwrapped pair,
+//!
+//! ```text
+//! V = ½ k_w L (w (ψ − ψ₀)² + (1 − w) ψ₀²),
+//! w = (1 + c²)² s_a² s_b² / ((s_a² + c²)(s_b² + c²)),
+//! ```
+//!
+//! with `s_a`, `s_b` the sines of the angles between each wing (`x₄ − x₀`, `x₃ − x₁`) and
+//! the axis and `c` = [`DEGENERATE_WING_SIN`]: `w = 1` for wings perpendicular to the axis,
+//! `w ≥ 0.98` at 45°, and `w → 0` like `s²` as a wing collapses, so that the energy and its
+//! gradient stay bounded and continuous. A collapsed wing costs what a pair at ψ = 0 costs,
+//! `½ k_w L ψ₀²`, so the guard only guards the numerics: folding a wing onto the axis is
+//! never a way to shed wrapping energy (with the weight alone, `V → 0` there, and 20–45 %
+//! of the pairs of settled free swatches under the paper's ψ₀ ended in that state). The
+//! blend is ours, not the paper's. Without it the degenerate configurations make Newton fail
+//! (the energy jumps across the degenerate set).
 //!
 //! **Derivatives.** Exact, by the chain rule through seven scalar invariants of the relative
 //! vectors `(x₁ − x₀, x₄ − x₀, x₃ − x₁)` (dot products and the triple product, see
@@ -92,7 +98,8 @@ pub struct StitchWrap {
 }
 
 /// Scale `c` of the degenerate-wing weight of [`StitchWrap`] (sine of the wing–axis angle).
-/// Below `sin ≈ c` (≈ 6°) the wrapping torque fades out; at the 45° wings of the layout the
+/// Below `sin ≈ c` (≈ 6°) the wrapping torque fades out and the energy tends to that of an
+/// unwrapped pair; at the 45° wings of the layout the
 /// weight is 0.98.
 pub const DEGENERATE_WING_SIN: f64 = 0.1;
 
@@ -111,9 +118,9 @@ impl StitchWrap {
         weight_relative(a, p, r)
     }
 
-    /// Eq. 2 times the degenerate-wing weight as a function of the seven invariants
-    /// `s = (a·a, p·p, r·r, a·p, a·r, p·r, a·(p × r))` of the relative vectors
-    /// `(a, p, r) = (x₁ − x₀, x₄ − x₀, x₃ − x₁)`. With `v_a = a × p`, `v_b = r × a`,
+    /// Eq. 2 blended by the degenerate-wing weight (module documentation) as a function of
+    /// the seven invariants `s = (a·a, p·p, r·r, a·p, a·r, p·r, a·(p × r))` of the relative
+    /// vectors `(a, p, r) = (x₁ − x₀, x₄ − x₀, x₃ − x₁)`. With `v_a = a × p`, `v_b = r × a`,
     /// `e·(v_a × v_b) = −|a| a·(p × r)` and `|a| v_a·v_b = |a| ((a·r)(a·p) − (a·a)(p·r))`, so
     /// `ψ = atan2(−|a| a·(p × r), (a·r)(a·p) − (a·a)(p·r))` (the common factor `|a| > 0`
     /// dropped), and `s_a² = 1 − (a·p)²/((a·a)(p·p))`, `s_b² = 1 − (a·r)²/((a·a)(r·r))`.
@@ -125,8 +132,10 @@ impl StitchWrap {
         let c2 = T::cst(DEGENERATE_WING_SIN * DEGENERATE_WING_SIN);
         let one = T::cst(1.0);
         let weight = (one + c2) * (one + c2) * sa * sb / ((sa + c2) * (sb + c2));
-        let d = psi - T::cst(self.rest_angle);
-        T::cst(0.5 * self.stiffness * self.rest_length) * weight * d * d
+        let rest = T::cst(self.rest_angle);
+        let d = psi - rest;
+        T::cst(0.5 * self.stiffness * self.rest_length)
+            * (weight * d * d + (one - weight) * rest * rest)
     }
 }
 

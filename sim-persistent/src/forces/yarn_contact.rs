@@ -11,7 +11,9 @@
 //! - share no stitch contact (the yarns through the two nodes of a stitch contact are held
 //!   there by the persistent contact itself, [`crate::topology::StitchContact`]), and
 //! - are not pieces of one yarn closer than [`YarnContact::min_arc_separation`] along it (a
-//!   yarn touches itself around every bend),
+//!   yarn touches itself around every bend), and
+//! - were not laid out through each other (closer than the yarn radius in the layout the
+//!   simulator starts from, [`Segments::exclude_crossed`]),
 //!
 //! so that the same contact law acts in both simulators of the workbench.
 //!
@@ -56,6 +58,9 @@ pub struct Segments {
     pub segments: Vec<Segment>,
     /// Index of each yarn's first segment in `segments` (and the total at the end).
     pub first: Vec<usize>,
+    /// Pairs `(a, b)`, `a < b`, excluded because they were laid out through each other
+    /// ([`Segments::exclude_crossed`]).
+    pub crossed: std::collections::BTreeSet<(usize, usize)>,
 }
 
 impl Segments {
@@ -81,7 +86,23 @@ impl Segments {
             }
         }
         first.push(segments.len());
-        Self { segments, first }
+        Self {
+            segments,
+            first,
+            crossed: Default::default(),
+        }
+    }
+
+    /// Excludes from contact, for good, every pair that `positions` (a layout) puts closer
+    /// than `distance` (m; the simulator uses the yarn radius, half the contact distance),
+    /// and returns how many. Such segments were laid out through each other (the flat layout
+    /// of a shaped or lace chart lets a leaning decrease leg cross its neighbours' legs), so
+    /// contact cannot know on which side of each other they belong; a barrier would lock
+    /// them in the crossing. They are left to the persistent contacts.
+    pub fn exclude_crossed(&mut self, positions: &[V3], distance: f64, min_arc: f64) -> usize {
+        let pairs = close_pairs(self, positions, distance, min_arc);
+        self.crossed.extend(pairs.iter().map(|p| (p.a, p.b)));
+        pairs.len()
     }
 
     /// Arc length (m) at the start of every segment along its yarn at `positions`, and at
@@ -109,11 +130,15 @@ impl Segments {
     }
 
     /// Whether segments `a` and `b` are excluded from contact (module documentation): they
-    /// share a node or a stitch contact, or lie on one yarn less than `min_arc` apart along
-    /// it (`arc` from [`Segments::arcs`]).
+    /// share a node or a stitch contact, were laid out through each other
+    /// ([`Segments::exclude_crossed`]), or lie on one yarn less than `min_arc` apart along it
+    /// (`arc` from [`Segments::arcs`]).
     fn excluded(&self, a: usize, b: usize, arc: &[f64], min_arc: f64) -> bool {
         let (sa, sb) = (&self.segments[a], &self.segments[b]);
         if sa.nodes.iter().any(|n| sb.nodes.contains(n)) {
+            return true;
+        }
+        if self.crossed.contains(&(a.min(b), a.max(b))) {
             return true;
         }
         if sa

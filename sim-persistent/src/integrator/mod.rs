@@ -60,6 +60,18 @@
 //!   rate at either end), `T` = [`StepSettings::wrapping_ramp_time`], evaluated at the end
 //!   of each (sub)step; the wrapping energy is zero at the layout. Without the ramp (`T = 0`)
 //!   every contact would get a quarter-turn torque at once.
+//! - *Contact ramp.* A layout can start with segments that are not stitched together closer
+//!   than the yarn diameter (the Table 1 layouts: adjacent stitch contacts' axes 0.65 d
+//!   apart), where yarn self-contact ([`crate::forces::yarn_contact`]) would start deep in
+//!   its barrier and the first step would be an explosion. Over the same settling phase the
+//!   contact radii therefore grow from `ρ₀ R` to `R`, `ρ(t) = ρ₀ + s(t/T) (1 − ρ₀)`, with
+//!   `ρ₀ = min(1, 0.9 D_min/2R)` and `D_min` the closest such pair of the layout: the
+//!   contact energy is zero at the layout, and the fabric is pushed apart as smoothly as
+//!   the stitches wrap. A layout with every pair at least `2R/0.9` apart has no ramp.
+//!   Pairs the layout puts closer than `R` (through each other: the leaning legs of
+//!   decreases in the flat layouts of shaped and lace charts) are excluded from contact for
+//!   the run ([`crate::forces::yarn_contact::Segments::exclude_crossed`],
+//!   [`Simulator::crossed_contact_pairs`]) and do not set `D_min`.
 
 mod settings;
 mod snapshot;
@@ -123,6 +135,11 @@ pub struct Simulator {
     contact: ContactList,
 }
 
+/// The clearance of the contact ramp's start: at the layout the closest pair of segments in
+/// contact is at `1/0.9` times the scaled contact distance (module documentation, *contact
+/// ramp*).
+const CONTACT_RAMP_CLEARANCE: f64 = 0.9;
+
 /// The yarn self-contact terms at the end of [`Simulator::elastic`] and where the nodes were
 /// when their pairs were searched ([`crate::forces::yarn_contact`]).
 #[derive(Clone, Debug)]
@@ -136,6 +153,12 @@ struct ContactList {
     start: usize,
     /// Node positions at the last search (empty: search at the next refresh).
     searched_at: Vec<V3>,
+    /// The scale ρ₀ of the contact radii at `t = 0` (1: no contact ramp; module
+    /// documentation, *contact ramp*).
+    start_scale: f64,
+    /// How many pairs the layout put through each other (excluded from contact,
+    /// [`Segments::exclude_crossed`]).
+    crossed: usize,
 }
 
 /// Everything [`Simulator::assemble`] builds a simulator from.
@@ -224,6 +247,8 @@ impl Simulator {
             segments: Segments::new(&topology),
             start: 0,
             searched_at: Vec::new(),
+            start_scale: 1.0,
+            crossed: 0,
         };
         let mut elastic = build_terms(&topology, &dofs, &params, &forces, &q_rest);
         elastic.check_dofs().map_err(SimError::Invalid)?;
@@ -302,8 +327,79 @@ impl Simulator {
         };
         sim.contact.start = sim.elastic.len();
         sim.add_obstacles(&obstacles)?;
+        if let Some(contact) = sim.contact.contact {
+            // At a rebuild (contact breaking) the pairs excluded at the start are the ones
+            // still this close, as contact kept every other pair at least 0.8 d apart.
+            let positions = sim.positions();
+            sim.contact.crossed = sim.contact.segments.exclude_crossed(
+                &positions,
+                contact.phases[0].radius,
+                contact.min_arc_separation,
+            );
+            if ramp && sim.settings.wrapping_ramp_time > 0.0 {
+                sim.contact.start_scale = sim.contact_start_scale();
+            }
+        }
         sim.refresh_contact(true);
+        sim.apply_contact_ramp(sim.time);
         Ok(sim)
+    }
+
+    /// The contact ramp's start scale ρ₀ = min(1, 0.9 D_min / 2R) at the current state, with
+    /// `D_min` the closest centreline distance of two segments in contact (module
+    /// documentation, *contact ramp*); 1 without yarn contact.
+    fn contact_start_scale(&self) -> f64 {
+        let Some(contact) = self.contact.contact else {
+            return 1.0;
+        };
+        let positions = self.positions();
+        let pairs = crate::forces::yarn_contact::close_pairs(
+            &self.contact.segments,
+            &positions,
+            contact.cutoff(),
+            contact.min_arc_separation,
+        );
+        let closest = pairs
+            .iter()
+            .map(|p| p.distance)
+            .fold(f64::INFINITY, f64::min);
+        (CONTACT_RAMP_CLEARANCE * closest / contact.cutoff()).min(1.0)
+    }
+
+    /// How many pairs of segments the layout put through each other, closer than the yarn
+    /// radius: they are excluded from yarn self-contact for the whole run
+    /// ([`crate::forces::yarn_contact::Segments::exclude_crossed`]); 0 without yarn contact.
+    pub fn crossed_contact_pairs(&self) -> usize {
+        self.contact.crossed
+    }
+
+    /// Node positions at the current state (m).
+    fn positions(&self) -> Vec<V3> {
+        (0..self.dofs.n_nodes())
+            .map(|n| self.dofs.position(&self.state.q, n))
+            .collect()
+    }
+
+    /// Scales the radii of every yarn self-contact term to their value on the contact ramp
+    /// at time `t` (s): `ρ(t) = ρ₀ + s(t/T) (1 − ρ₀)` with the wrapping ramp's `s` and `T`.
+    pub(super) fn apply_contact_ramp(&mut self, t: f64) {
+        let Some(contact) = self.contact.contact else {
+            return;
+        };
+        let rho0 = self.contact.start_scale;
+        if rho0 >= 1.0 {
+            return;
+        }
+        let rho = rho0 + self.wrapping_ramp_progress(t) * (1.0 - rho0);
+        let phases = contact.phases.map(|mut p| {
+            p.radius *= rho;
+            p
+        });
+        for (k, term, _) in self.elastic.iter_mut_of::<rod::contact::EdgeContact, 12>() {
+            if k >= self.contact.start {
+                term.phases = phases;
+            }
+        }
     }
 
     /// Searches the yarn self-contact pairs again ([`crate::forces::yarn_contact`]) if

@@ -110,6 +110,7 @@ impl Simulator {
         // Lagged Coulomb bound (Eq. 5): the compression of the state at the start of the step.
         let limits = self.slip_limits(&self.state.q)?;
         self.apply_wrapping_ramp(self.time + h);
+        self.apply_contact_ramp(self.time + h);
         let qn = self.state.q.clone();
         self.update_step_terms(&qn, h);
         if self.solver.0.is_none() {

@@ -34,7 +34,8 @@
 //! preset = "sweater"   # Table 1: "sweater", "shirt", "pullover"; default "sweater"
 //! # overrides, all optional (SI units): radius, young_modulus, bending_modulus,
 //! # linear_density, wrapping_stiffness, friction_coefficient, friction_max_force, loop_width,
-//! # gravity = [x, y, z]; for a knit's layout also row_height (default: the loop width) and
+//! # wrapping_rest ("layout", the default, or "paper": crate::params::WrappingRest),
+//! # wrapping_bias (rad, layout only; default 0.1), gravity = [x, y, z]; for a knit's layout also row_height (default: the loop width) and
 //! # loop_length (yarn per loop; the out-of-plane offset is solved for it, default R/4),
 //! # or all three at once in knitters' units (per 10 cm and mm):
 //! # gauge = { stitches = 18, rows = 34, stitch_length_mm = 14.0 }
@@ -43,14 +44,13 @@
 //! alpha = 10.0
 //! beta = 0.0
 //!
-//! [forces]             # which terms exist; all default to true but loop_contact and
-//!                      # yarn_contact
+//! [forces]             # which terms exist; all default to true but loop_contact
 //! gravity = false
 //! wrapping = true
 //! crossing_shear = true  # crossing shear with jamming (weaves only)
 //! loop_contact = false   # contact between adjacent loops (knits only); default false
 //! segment_floor = true   # floor on segments' material length (ours); default true
-//! yarn_contact = false   # yarn self-contact (crate::forces::yarn_contact); default false
+//! yarn_contact = true    # yarn self-contact (crate::forces::yarn_contact); default true
 //!
 //! [crossing_shear]     # weaves; all optional (crate::forces::crossing_shear)
 //! stiffness = 2e-2     # k_x (N)
@@ -140,7 +140,7 @@ use crate::forces::ForceSet;
 use crate::integrator::{SimError, Simulator, StepSettings};
 use crate::layout::{Gauge, Layout, LayoutError, LayoutParams};
 use crate::output::{OutputError, OutputSpec};
-use crate::params::YarnParams;
+use crate::params::{DEFAULT_WRAP_BIAS, WrappingRest, YarnParams};
 use crate::topology::Topology;
 use rod::geometry::V3;
 use serde::Deserialize;
@@ -480,6 +480,19 @@ impl Scene {
         if let Some(g) = y.gravity {
             params.gravity = V3::from(g);
         }
+        params.wrapping_rest = match (y.wrapping_rest.as_deref(), y.wrapping_bias) {
+            (Some("paper"), Some(_)) => {
+                return Err(SceneError::Invalid(
+                    "[yarn] wrapping_bias is for wrapping_rest = \"layout\"; the paper's rest \
+                     angle is a fixed quarter turn"
+                        .into(),
+                ));
+            }
+            (Some("paper"), None) => WrappingRest::paper(),
+            (_, bias) => WrappingRest::Layout {
+                wrap: bias.unwrap_or(DEFAULT_WRAP_BIAS),
+            },
+        };
         params.validate().map_err(SceneError::Invalid)?;
         let gauge = self.knit_gauge(params.radius)?;
         Ok((

@@ -212,6 +212,15 @@ pub struct YarnSpec {
     /// Wrapping stiffness `k_w` (N).
     #[serde(default, deserialize_with = "de_opt_positive")]
     pub wrapping_stiffness: Option<f64>,
+    /// Where the stitch-wrapping rest angles come from ([`crate::params::WrappingRest`]):
+    /// `"layout"` (default: the layout's angles turned by `wrapping_bias`) or `"paper"`
+    /// (the paper's fixed quarter turn ψ₀ = ±π/2, ramped in from the layout).
+    #[serde(default, deserialize_with = "de_wrapping_rest")]
+    pub wrapping_rest: Option<String>,
+    /// The wrapping bias β of `wrapping_rest = "layout"` (rad, in `[0, π)`; default
+    /// [`crate::params::DEFAULT_WRAP_BIAS`]).
+    #[serde(default, deserialize_with = "de_opt_non_negative")]
+    pub wrapping_bias: Option<f64>,
     /// A constant friction slip force (N) instead of the Coulomb bound `μ λ`.
     #[serde(default, deserialize_with = "de_opt_non_negative")]
     pub friction_max_force: Option<f64>,
@@ -286,7 +295,7 @@ pub struct ForcesSpec {
     /// Floor on the material length of segments (default true,
     /// [`crate::forces::segment_floor`]).
     pub segment_floor: bool,
-    /// Yarn self-contact (default false, [`crate::forces::yarn_contact`]).
+    /// Yarn self-contact (default true, [`crate::forces::yarn_contact`]).
     pub yarn_contact: bool,
 }
 
@@ -357,6 +366,17 @@ fn de_edge<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<String>, D::
         )));
     }
     Ok(Some(edge))
+}
+
+/// `[yarn] wrapping_rest`: `"layout"` or `"paper"`.
+fn de_wrapping_rest<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<String>, D::Error> {
+    let rest = String::deserialize(d)?;
+    if !matches!(rest.as_str(), "layout" | "paper") {
+        return Err(serde::de::Error::custom(format!(
+            "unknown wrapping rest \"{rest}\" (\"layout\" or \"paper\")"
+        )));
+    }
+    Ok(Some(rest))
 }
 
 /// A clamp velocity: three finite numbers (m/s).
