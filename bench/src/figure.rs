@@ -171,6 +171,7 @@ pub fn all_figures() -> Vec<FigureSpec> {
         persistent_rib_stretch::spec(),
         persistent_curl::spec(),
         persistent_knit_fidelity::spec(),
+        persistent_rest_shape::spec(),
         persistent_plasticity::spec(),
         persistent_patterns_on_sphere::spec(),
         persistent_stitches::spec(),

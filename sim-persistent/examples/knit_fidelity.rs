@@ -31,6 +31,7 @@ fn main() -> anyhow::Result<()> {
         wrapping: WrappingRest::default(),
         yarn_contact: true,
         time,
+        compensation: None,
     };
     for kv in args.iter().skip(4) {
         let (k, v) = kv

@@ -19,17 +19,16 @@
 //!    is not an edge shape. The *source tile* `(r₀, c₀)` is the copy of the repeat (phase
 //!    `(0, 0)`) nearest the rectangle's centre.
 //! 3. **Relaxation** ([`relax_rectangle`]): the flat layout of the rectangle is simulated
-//!    without gravity, its border cells (the contact nodes of the cast-on and bind-off
-//!    boundaries and of the first and last column) pinned where the flat layout has them:
-//!    they stand for the surrounding garment, remove the rigid motions, and keep the
-//!    rectangle from rolling up (a free swatch of this model rolls to a radius of a few mm,
-//!    [`crate::measure`], and a rolled loop cannot be laid flat). Mass damping
+//!    free and without gravity, as the paper does (with
+//!    [`CompensationSettings::pin_border`] its border cells are pinned where the flat layout
+//!    has them instead, standing for the surrounding garment). Mass damping
 //!    ([`CompensationSettings::step`], default α = 10/s as Table 1, Newton stopped at
-//!    1e-7 N, the wrapping rest angles ramped in over 0.1 s) for
+//!    1e-7 N, the settling ramps of wrapping and contact over 0.1 s) for
 //!    [`CompensationSettings::settle_time`] and then until the kinetic energy is below
 //!    [`CompensationSettings::kinetic_ratio`] of its peak, then a static solve
-//!    ([`CompensationSettings::static_solve`]). If the kinetic criterion is not met by
-//!    [`CompensationSettings::max_settle_time`] it is an error
+//!    ([`CompensationSettings::static_solve`]; a free rectangle has the source tile's first
+//!    cell pinned for it, which removes the rigid motions). If the kinetic criterion is not
+//!    met by [`CompensationSettings::max_settle_time`] it is an error
 //!    ([`RestShapeError::NotSettled`]), never a silent result; the final force residual is
 //!    reported ([`RelaxReport`]).
 //! 4. **Transfer** ([`transfer`]): every contact cell of the full chart (the four nodes of
@@ -50,38 +49,26 @@
 //!    `L` of Eq. 2, both taken from the initial state by [`crate::forces::build_terms`]) are
 //!    the transferred ones.
 //!
-//! **Wrapping ramp.** The simulator ramps the wrapping rest angles in from the layout's
-//! angles ([`crate::integrator::StepSettings::wrapping_ramp_time`]). A compensated layout is
-//! already wrapped by the full rest angle ψ₀: simulate it with a ramp time of **0**
-//! ([`compensated_step_settings`]). With the default ramp the wrapping springs would start
-//! slack (rest angle = current angle), and the loops would first unwrap, then wrap again.
+//! **Wrapping rest state.** The relaxed loops are wrapped: their stitch contacts have
+//! turned from the flat layout's angles towards the rest angles of
+//! [`crate::params::WrappingRest`] taken from the flat layout. A simulator started from the
+//! compensated layout keeps those rest angles ([`Simulator::set_wrapping_reference`] with the
+//! flat layout, [`compensated_simulator`]) and steps without the settling ramps
+//! ([`compensated_step_settings`]): the layout's own angles as rest angles would drop the
+//! wrapping moment that balances the loops' bending, and a ramp would first unwrap them. The
+//! residual [`elastic_residual_with_reference`] measures the same state. The `rest-shape`
+//! figure (Fig. 6) and `tests/rest_shape.rs` compare the compensated and the flat start.
 //!
-//! **Measured (sweater yarn, 3 mm loops, rectangles of one repeat plus a margin of 2;
-//! `tests/rest_shape.rs`): the compensation does not yet bring the layouts nearer rest.**
-//! The relaxation converges (force on the free positions: 5 × 5 stockinette rectangle
-//! 3.4e-2 → 8e-10 N, 8 × 5 rib 2 × 2 1.3e-1 → 2e-8 N), but the relaxed cells are far from
-//! periodic: neighbouring cells of the 5 × 5 rectangle differ in shape by ≈ 0.3 mm (loop
-//! width 3 mm; many wrapping pairs sit in their degenerate-wing state, see
-//! [`crate::forces::wrapping`]). Copying one cell per phase onto a lattice then gives a
-//! start residual (all elastic terms, free coordinates, [`elastic_residual`]) *larger* than
-//! the flat layout's: stockinette 5 × 5 0.38 N against 0.085 N (0.31 N from a 9 × 9
-//! rectangle), rib 2 × 2 8 × 4 0.25 N against 0.14 N. Free swatches relaxed for 0.3 s
-//! (no gravity, α = 10/s) keep, relative to their start, width × height 0.971 × 0.282
-//! (stockinette, compensated, no ramp) against 0.944 × 0.376 (flat, default ramp), and
-//! 0.717 × 0.498 (rib, compensated) against 0.574 × 0.526 (flat): the width changes less,
-//! the height does not; the stockinette rolls up either way (its rest shape in this model).
-//! Larger rectangles and averaging the cells of one phase over the core are the next things
-//! to try.
-//!
-//! **Differences from the paper.** The paper relaxes a free rectangle and places the
-//! relaxed loop shapes on the garment's mesh; here the rectangle's border is pinned (see
-//! step 3), so the loop *pitch* stays the laid-out one up to the relaxed lattice vectors,
-//! and the target is the flat chart on a plane lattice. A non-repeating chart is continued
-//! cyclically into its margin. The default rectangle is at least 5 cm × 5 cm for every
-//! chart, also for complex ones whose repeat is smaller than that.
+//! **Differences from the paper.** The paper places the relaxed loop shapes on the garment's
+//! mesh; here the target is the flat chart on a plane lattice (the relaxed tile's lattice
+//! vectors). A non-repeating chart is continued cyclically into its margin. The default
+//! rectangle is at least 5 cm × 5 cm for every chart, also for complex ones whose repeat is
+//! smaller than that.
 
 use crate::chart::Chart;
-use crate::forces::{ForceSet, build_terms};
+use crate::forces::wrapping::StitchWrap;
+use crate::forces::yarn_contact::{Segments, YarnContact};
+use crate::forces::{ForceSet, build_terms, wrapping_stencils, yarn_contact_terms};
 use crate::integrator::{SimError, Simulator, StepSettings};
 use crate::layout::{Layout, LayoutError, LayoutParams};
 use crate::params::YarnParams;
@@ -141,9 +128,15 @@ pub struct CompensationSettings {
     /// Settled when the kinetic energy is at most this fraction of its peak. Default 1e-2
     /// (the static solve finishes the job).
     pub kinetic_ratio: f64,
-    /// After the dynamic settle, solve for static equilibrium (the pinned border removes the
-    /// rigid motions). Default true.
+    /// After the dynamic settle, solve for static equilibrium. Default true. (With a free
+    /// rectangle the source tile's first cell is pinned for this solve, which removes the
+    /// rigid motions; with [`CompensationSettings::pin_border`] the border does.)
     pub static_solve: bool,
+    /// Pin the rectangle's border cells during the relaxation (`true`: they stand for the
+    /// surrounding garment and keep the rectangle from rolling up) or relax it free
+    /// (`false`, the default, as the paper: the default model keeps a free rectangle flat,
+    /// and its loops take their own pitch).
+    pub pin_border: bool,
 }
 
 impl Default for CompensationSettings {
@@ -169,6 +162,7 @@ impl Default for CompensationSettings {
             max_settle_time: 1.0,
             kinetic_ratio: 1e-2,
             static_solve: true,
+            pin_border: false,
         }
     }
 }
@@ -308,7 +302,7 @@ pub struct RelaxReport {
     /// Kinetic energy at the end (J).
     pub final_kinetic: f64,
     /// Norm of the force (N) of the relaxation's elastic terms (full wrapping rest angle ψ₀)
-    /// on the free node positions (the pinned border left out; sliding coordinates left out
+    /// on the free node positions (pinned nodes left out; sliding coordinates left out
     /// too, as friction holds them), at the flat start and at the end.
     pub start_residual: f64,
     /// See `start_residual`.
@@ -318,22 +312,33 @@ pub struct RelaxReport {
 }
 
 /// Norm (N) of the gradient of the elastic terms of `forces` (gravity and friction switched
-/// off) over the free coordinates (the sliding coordinates the topology pins are left out)
-/// of `layout`, with the full wrapping rest angle ψ₀: how far the layout is from rest.
+/// off; yarn self-contact at its full radius) over the free coordinates (the sliding
+/// coordinates the topology pins are left out) of `layout`, with the full wrapping rest
+/// angle ψ₀: how far the layout is from rest.
 pub fn elastic_residual(
     topology: &Topology,
     layout: &Layout,
     params: &YarnParams,
     forces: &ForceSet,
 ) -> Result<f64, RestShapeError> {
-    if layout.positions.len() != topology.nodes.len()
-        || layout.sliding.len() != topology.nodes.len()
-        || topology
-            .nodes
-            .iter()
-            .zip(&layout.sliding)
-            .any(|(n, s)| n.passes.len() != s.len())
-    {
+    elastic_residual_with_reference(topology, layout, layout, params, forces)
+}
+
+/// [`elastic_residual`] with the wrapping rest angles taken from `wrap_reference` (as a
+/// compensated simulator takes them from the flat layout, [`compensated_simulator`]).
+pub fn elastic_residual_with_reference(
+    topology: &Topology,
+    layout: &Layout,
+    wrap_reference: &Layout,
+    params: &YarnParams,
+    forces: &ForceSet,
+) -> Result<f64, RestShapeError> {
+    let matches = |l: &Layout| {
+        l.positions.len() == topology.nodes.len()
+            && l.sliding.len() == topology.nodes.len()
+            && (topology.nodes.iter().zip(&l.sliding)).all(|(n, s)| n.passes.len() == s.len())
+    };
+    if !(matches(layout) && matches(wrap_reference)) {
         return Err(RestShapeError::Invalid(
             "layout does not match the topology".into(),
         ));
@@ -345,7 +350,29 @@ pub fn elastic_residual(
     };
     let dofs = DofMap::new(topology);
     let state = State::from_layout(topology, &dofs, layout);
-    let terms = build_terms(topology, &dofs, params, &forces, &state.q);
+    let mut terms = build_terms(topology, &dofs, params, &forces, &state.q);
+    let q_ref = State::from_layout(topology, &dofs, wrap_reference).q;
+    let rest = wrapping_stencils(topology, &dofs, params, &q_ref);
+    for ((_, wrap, _), (reference, _)) in terms.iter_mut_of::<StitchWrap, 12>().zip(rest) {
+        wrap.rest_angle = reference.rest_angle;
+    }
+    if forces.yarn_contact {
+        // Yarn self-contact at its full radius, without the pairs the layout crosses (as the
+        // simulator leaves them out).
+        let contact = YarnContact::for_yarn(params.radius, params.bending_stiffness());
+        let mut segments = Segments::new(topology);
+        segments.exclude_crossed(
+            &layout.positions,
+            contact.phases[0].radius,
+            contact.min_arc_separation,
+        );
+        terms.append(yarn_contact_terms(
+            &contact,
+            &segments,
+            &dofs,
+            &layout.positions,
+        ));
+    }
     let g = terms.gradient(&state.q);
     let mut free = vec![true; dofs.n_dofs()];
     for (n, node) in topology.nodes.iter().enumerate() {
@@ -368,8 +395,8 @@ pub fn elastic_residual(
     Ok(norm)
 }
 
-/// Relaxes the flat layout of `rect` without gravity, its border cells pinned (module
-/// documentation, step 3), and returns the relaxed layout (positions and sliding
+/// Relaxes the flat layout of `rect` without gravity, free or with its border cells pinned
+/// (module documentation, step 3), and returns the relaxed layout (positions and sliding
 /// coordinates, indexed like `Topology::knit(&rect.chart)`).
 pub fn relax_rectangle(
     rect: &Rectangle,
@@ -391,7 +418,9 @@ pub fn relax_rectangle(
         forces,
         settings.step.clone(),
     )?;
-    sim.pin_nodes(&border_nodes(rect))?;
+    if settings.pin_border {
+        sim.pin_nodes(&border_nodes(rect))?;
+    }
     // Residuals over the free node positions: friction (Eq. 5) acts on the sliding
     // coordinates only, and the static solve moves its anchors afterwards.
     let mut skip = sim.fixed().to_vec();
@@ -433,6 +462,21 @@ pub fn relax_rectangle(
     }
     let final_kinetic = sim.kinetic_energy();
     let static_iterations = if settings.static_solve {
+        if !settings.pin_border {
+            let (w, _) = rect.size();
+            let (r0, c0) = rect.tile;
+            let cell: Vec<usize> = [Side::Left, Side::Right]
+                .into_iter()
+                .flat_map(|side| [false, true].map(|hi| knit_node(w, r0, c0, side, hi)))
+                .collect();
+            sim.pin_nodes(&cell)?;
+            for &n in &cell {
+                let d = sim.dofs().x(n);
+                for k in d..d + 3 {
+                    skip[k] = true;
+                }
+            }
+        }
         Some(sim.solve_static()?.iterations)
     } else {
         None
@@ -486,7 +530,8 @@ fn free_norm(g: &[f64], fixed: &[bool]) -> f64 {
 }
 
 /// The nodes of the rectangle's border cells (cast-on and bind-off boundaries, first and
-/// last column), pinned during the relaxation: they stand for the surrounding fabric.
+/// last column), pinned during the relaxation with [`CompensationSettings::pin_border`]:
+/// they stand for the surrounding fabric.
 pub fn border_nodes(rect: &Rectangle) -> Vec<usize> {
     let (w, h) = rect.size();
     let mut nodes = Vec::new();
@@ -744,6 +789,33 @@ pub fn compensated_layout(
             frame,
         },
     ))
+}
+
+/// A simulator of `chart` started from its compensated layout ([`compensated_layout`]):
+/// steps `step` without the settling ramps ([`compensated_step_settings`]), the wrapping rest
+/// angles those of the flat layout the rectangle relaxed against
+/// ([`Simulator::set_wrapping_reference`]). Also returns the compensated and the flat
+/// layout and the report.
+pub fn compensated_simulator(
+    chart: &Chart,
+    params: &YarnParams,
+    layout_params: &LayoutParams,
+    forces: ForceSet,
+    step: &StepSettings,
+    settings: &CompensationSettings,
+) -> Result<(Simulator, Layout, Layout, CompensationReport), RestShapeError> {
+    let (layout, report) = compensated_layout(chart, params, layout_params, settings)?;
+    let topology = Topology::knit(chart);
+    let flat = Layout::new(&topology, layout_params)?;
+    let mut sim = Simulator::new(
+        topology,
+        &layout,
+        *params,
+        forces,
+        compensated_step_settings(step),
+    )?;
+    sim.set_wrapping_reference(&flat)?;
+    Ok((sim, layout, flat, report))
 }
 
 /// `settings` with the wrapping ramp switched off (ramp time 0), for simulating a

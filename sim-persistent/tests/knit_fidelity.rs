@@ -26,6 +26,7 @@ fn run(chart: Chart, wrapping: WrappingRest, yarn_contact: bool, time: f64) -> F
         wrapping,
         yarn_contact,
         time,
+        compensation: None,
     }
     .run()
     .unwrap()
@@ -133,6 +134,7 @@ fn the_papers_quarter_turn_rolls_a_flat_layout_through_itself() {
         wrapping: WrappingRest::paper(),
         yarn_contact: false,
         time: 0.2,
+        compensation: None,
     }
     .run()
     .unwrap();

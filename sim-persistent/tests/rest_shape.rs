@@ -381,3 +381,50 @@ fn relaxed_shapes_are_transferred_exactly() {
         }
     });
 }
+
+/// Seed 000 Fig. 6 on a 10 × 10 stockinette with the default model (layout wrapping rest
+/// state, yarn self-contact), free, no gravity, 0.3 s: started from the compensated layout
+/// (a free 10 × 10 rectangle: 6 loops and the margin of 2), the swatch starts nearer rest
+/// than from the flat layout (its force residual, yarn contact included, is smaller) and its
+/// interior course and row spacings change by less than 5 % over the run, where the flat
+/// layout's open by more than 5 % (yarn contact pushes the crowded 3 mm layout apart).
+#[test]
+fn compensated_stockinette_starts_nearer_rest_and_keeps_its_gauge() {
+    use sim_persistent::experiment::FreeSwatch;
+    use sim_persistent::params::WrappingRest;
+    let chart = Chart::stockinette(10, 10).unwrap();
+    let swatch = |compensation: Option<CompensationSettings>| FreeSwatch {
+        chart: chart.clone(),
+        gauge: None,
+        wrapping: WrappingRest::default(),
+        yarn_contact: true,
+        time: 0.3,
+        compensation,
+    };
+    let settings = CompensationSettings {
+        min_extent: 6.0 * LOOP,
+        ..CompensationSettings::default()
+    };
+    let (flat, comp) = std::thread::scope(|scope| {
+        let flat = scope.spawn(|| swatch(None).run().unwrap());
+        let comp = swatch(Some(settings)).run().unwrap();
+        (flat.join().unwrap(), comp)
+    });
+    let change = |r: &sim_persistent::experiment::FreeSwatchRun| {
+        let (a, b) = (r.start.grid.unwrap(), r.end.grid.unwrap());
+        (
+            b.course.median / a.course.median - 1.0,
+            b.row.median / a.row.median - 1.0,
+        )
+    };
+    let (fc, cc) = (change(&flat), change(&comp));
+    eprintln!(
+        "flat: residual {:.3e} N, spacing change {:+.3} / {:+.3}; compensated: residual \
+         {:.3e} N, spacing change {:+.3} / {:+.3}",
+        flat.start_residual, fc.0, fc.1, comp.start_residual, cc.0, cc.1
+    );
+    assert!(comp.start_residual < flat.start_residual);
+    assert!(cc.0.abs() < 0.05 && cc.1.abs() < 0.05, "{cc:?}");
+    assert!(fc.0.abs().max(fc.1.abs()) > 0.05, "{fc:?}");
+    assert!(comp.end.contacts.closest_unstitched > 0.8);
+}

@@ -23,6 +23,7 @@ pub mod persistent_knit_fidelity;
 pub mod persistent_patterns_on_sphere;
 pub mod persistent_plasticity;
 pub mod persistent_pullout;
+pub mod persistent_rest_shape;
 pub mod persistent_rib_stretch;
 pub mod persistent_stitches;
 pub mod persistent_time_vs_error;

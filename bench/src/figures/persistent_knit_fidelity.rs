@@ -5,10 +5,10 @@
 //! models:
 //!
 //! - **paper**: the fixed quarter-turn wrapping rest angle of Eq. 2 and no yarn self-contact
-//!   (the simulator's defaults);
+//!   ([`WrappingRest::paper`]);
 //! - **contact + layout wrap**: the wrapping rest angle taken from the layout plus the small
 //!   wrapping bias ([`WrappingRest::Layout`] with [`DEFAULT_WRAP_BIAS`]) and yarn
-//!   self-contact.
+//!   self-contact (the simulator's defaults).
 //!
 //! Every chart is laid out at Table 1's 3 mm loops; the stockinette is also laid out at the
 //! relaxed periodic tile's gauge ([`Gauge::RELAXED_STOCKINETTE`]) under the second model.
@@ -151,6 +151,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                     wrapping,
                     yarn_contact: contact,
                     time,
+                    compensation: None,
                 },
             ));
         }
@@ -164,6 +165,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             wrapping: layout_wrap,
             yarn_contact: true,
             time,
+            compensation: None,
         },
     ));
     let progress = ctx.progress(runs.len() as u64, "swatches");

@@ -15,6 +15,9 @@ use crate::integrator::{Simulator, StepSettings};
 use crate::layout::{Gauge, Layout, LayoutParams};
 use crate::measure::{EdgeCurl, edge_curl};
 use crate::params::{WrappingRest, YarnParams};
+use crate::rest_shape::{
+    CompensationSettings, compensated_simulator, elastic_residual_with_reference,
+};
 use crate::topology::Topology;
 use anyhow::Context;
 
@@ -32,6 +35,10 @@ pub struct FreeSwatch {
     pub yarn_contact: bool,
     /// Simulated time (s).
     pub time: f64,
+    /// `Some`: start from the rest-shape compensated layout ([`crate::rest_shape`], these
+    /// settings; without the settling ramps, wrapping rest angles from the flat layout);
+    /// `None`: from the flat layout.
+    pub compensation: Option<CompensationSettings>,
 }
 
 /// The measures of one state of a free swatch.
@@ -115,6 +122,9 @@ pub struct FreeSwatchRun {
     pub final_kinetic: f64,
     /// Yarn self-contact terms at the end.
     pub contact_terms: usize,
+    /// Norm of the elastic force on the free coordinates at the start (N,
+    /// [`crate::rest_shape::elastic_residual`]): how far the start is from rest.
+    pub start_residual: f64,
 }
 
 impl FreeSwatch {
@@ -125,6 +135,12 @@ impl FreeSwatch {
 
     /// [`FreeSwatch::run`], also returning the simulator at the end (to render or write it).
     pub fn simulate(&self) -> anyhow::Result<(FreeSwatchRun, Simulator)> {
+        let (run, _, end) = self.simulate_with_start()?;
+        Ok((run, end))
+    }
+
+    /// [`FreeSwatch::simulate`], also returning the simulator at the start.
+    pub fn simulate_with_start(&self) -> anyhow::Result<(FreeSwatchRun, Simulator, Simulator)> {
         let topo = Topology::knit(&self.chart);
         let mut params = YarnParams::sweater();
         params.gravity *= 0.0;
@@ -134,7 +150,7 @@ impl FreeSwatch {
             Some(g) => LayoutParams::at_gauge(&topo, params.radius, g)?,
             None => LayoutParams::new(LOOP_WIDTH, params.radius),
         };
-        let layout = Layout::new(&topo, &layout_params)?;
+        let flat = Layout::new(&topo, &layout_params)?;
         let forces = ForceSet {
             gravity: false,
             yarn_contact: self.yarn_contact,
@@ -146,7 +162,32 @@ impl FreeSwatch {
         };
         settings.newton.gradient_abs_tol = 1e-7;
         let dt = settings.dt;
-        let mut sim = Simulator::new(topo.clone(), &layout, params, forces, settings)?;
+        let (mut sim, layout) = match &self.compensation {
+            None => (
+                Simulator::new(topo.clone(), &flat, params, forces, settings)?,
+                flat.clone(),
+            ),
+            Some(c) => {
+                let comp = CompensationSettings {
+                    forces: ForceSet {
+                        gravity: false,
+                        ..forces
+                    },
+                    ..c.clone()
+                };
+                let (sim, layout, _, _) = compensated_simulator(
+                    &self.chart,
+                    &params,
+                    &layout_params,
+                    forces,
+                    &settings,
+                    &comp,
+                )?;
+                (sim, layout)
+            }
+        };
+        let start_residual =
+            elastic_residual_with_reference(&topo, &layout, &flat, &params, &forces)?;
         let measure = |sim: &Simulator| -> anyhow::Result<Measures> {
             let p = positions(sim);
             Ok(Measures {
@@ -156,6 +197,7 @@ impl FreeSwatch {
             })
         };
         let start = measure(&sim)?;
+        let at_start = sim.clone();
         let steps = ((self.time / dt).round() as usize).max(1);
         let mut peak_kinetic: f64 = 0.0;
         for k in 0..steps {
@@ -172,7 +214,8 @@ impl FreeSwatch {
             contact_terms: sim
                 .static_terms()
                 .count(crate::forces::TermKind::YarnContact),
+            start_residual,
         };
-        Ok((run, sim))
+        Ok((run, at_start, sim))
     }
 }

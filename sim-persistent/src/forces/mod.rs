@@ -428,6 +428,36 @@ pub fn yarn_contact_terms(
     terms
 }
 
+/// The stitch-wrapping terms of a knit (Eq. 2) with their position DOFs, in the order
+/// [`build_terms`] adds them: per stitch contact, its pairs of [`wrapping::wrap_pairs`].
+/// The rest length `L` of each is its contact's length at `q_rest`, its rest angle
+/// [`crate::params::WrappingRest::rest_angle`] of the pair's sense and its angle at `q_rest`.
+pub fn wrapping_stencils(
+    topology: &Topology,
+    dofs: &DofMap,
+    params: &YarnParams,
+    q_rest: &[f64],
+) -> Vec<(StitchWrap, [usize; 12])> {
+    let position = |n: usize| dofs.position(q_rest, n);
+    let mut stencils = Vec::new();
+    for sc in &topology.stitch_contacts {
+        let sign = wrapping::rest_angle_sign(sc);
+        let rest_length = (position(sc.nodes[1]) - position(sc.nodes[0])).norm();
+        for nodes in wrapping::wrap_pairs(topology, sc).into_iter().flatten() {
+            let d: [usize; 12] = std::array::from_fn(|k| dofs.x(nodes[k / 3]) + k % 3);
+            let x: [f64; 12] = std::array::from_fn(|k| q_rest[d[k]]);
+            let rest_angle = params.wrapping_rest.rest_angle(sign, StitchWrap::angle(&x));
+            let wrap = StitchWrap {
+                stiffness: params.wrapping_stiffness,
+                rest_length,
+                rest_angle,
+            };
+            stencils.push((wrap, d));
+        }
+    }
+    stencils
+}
+
 /// The elastic and gravity terms of a fabric (everything but the per-step inertia and
 /// damping), selected by `forces`. Rest lengths of stitch contacts (Eqs. 2 and 6) and the
 /// initial friction anchors (Eq. 5; one per free sliding coordinate of a node with ≥ 2 yarns
@@ -499,21 +529,8 @@ pub fn build_terms(
     }
     let knit = matches!(topology.kind, FabricKind::Knit(_));
     if forces.wrapping && knit && params.wrapping_stiffness > 0.0 {
-        let position = |n: usize| dofs.position(q_rest, n);
-        for sc in &topology.stitch_contacts {
-            let sign = wrapping::rest_angle_sign(sc);
-            let rest_length = (position(sc.nodes[1]) - position(sc.nodes[0])).norm();
-            for nodes in wrapping::wrap_pairs(topology, sc).into_iter().flatten() {
-                let d: [usize; 12] = std::array::from_fn(|k| dofs.x(nodes[k / 3]) + k % 3);
-                let x: [f64; 12] = std::array::from_fn(|k| q_rest[d[k]]);
-                let rest_angle = params.wrapping_rest.rest_angle(sign, StitchWrap::angle(&x));
-                let wrap = StitchWrap {
-                    stiffness: params.wrapping_stiffness,
-                    rest_length,
-                    rest_angle,
-                };
-                terms.push(TermKind::Wrapping, wrap, d);
-            }
+        for (wrap, d) in wrapping_stencils(topology, dofs, params, q_rest) {
+            terms.push(TermKind::Wrapping, wrap, d);
         }
     }
     let weave = matches!(topology.kind, FabricKind::Weave { .. });

@@ -112,6 +112,9 @@ pub struct Simulator {
     damped: Vec<DampingSource>,
     /// Wrapping terms under the rest-angle ramp: (term index, layout angle ψ_L, target ψ₀).
     wrap_ramp: Vec<(usize, f64, f64)>,
+    /// Whether the wrapping rest angles come from a reference layout
+    /// ([`Simulator::set_wrapping_reference`]).
+    wrap_reference: bool,
     fixed: Vec<bool>,
     state: State,
     /// The Newton solver of the step (cached sparsity pattern and factorization); a clone
@@ -315,6 +318,7 @@ impl Simulator {
             segment_dofs,
             damped,
             wrap_ramp,
+            wrap_reference: false,
             fixed,
             state,
             q_rest,
@@ -343,6 +347,46 @@ impl Simulator {
         sim.refresh_contact(true);
         sim.apply_contact_ramp(sim.time);
         Ok(sim)
+    }
+
+    /// Takes the stitch-wrapping rest angles from `reference` instead of the layout the
+    /// simulator was built from ([`crate::params::WrappingRest::rest_angle`] of each pair's
+    /// angle in `reference`; rest lengths stay the layout's): a layout that starts wrapped,
+    /// such as a rest-shape compensated one ([`crate::rest_shape`]), keeps the rest state of
+    /// the flat layout its shapes were relaxed against. The ramp then goes from the current
+    /// angles (or, without a ramp or past it, jumps) to these. Errors if `reference` does not
+    /// match the topology. Contact breaking afterwards is refused ([`Simulator::break_passes`]
+    /// rebuilds the terms from the layout).
+    pub fn set_wrapping_reference(&mut self, reference: &Layout) -> Result<(), SimError> {
+        let topology = &self.topology;
+        if reference.positions.len() != topology.nodes.len()
+            || reference.sliding.len() != topology.nodes.len()
+            || (topology.nodes.iter().zip(&reference.sliding))
+                .any(|(n, s)| n.passes.len() != s.len())
+        {
+            return Err(SimError::Invalid(
+                "the wrapping reference layout does not match the topology".into(),
+            ));
+        }
+        if !(self.forces.wrapping && self.params.wrapping_stiffness > 0.0) {
+            return Ok(());
+        }
+        let q_ref = State::from_layout(topology, &self.dofs, reference).q;
+        let stencils = crate::forces::wrapping_stencils(topology, &self.dofs, &self.params, &q_ref);
+        let targets: Vec<f64> = stencils.iter().map(|(w, _)| w.rest_angle).collect();
+        if targets.len() != self.wrap_ramp.len() {
+            return Err(SimError::Invalid(format!(
+                "{} wrapping pairs in the reference, {} in the simulator",
+                targets.len(),
+                self.wrap_ramp.len()
+            )));
+        }
+        for (entry, target) in self.wrap_ramp.iter_mut().zip(targets) {
+            entry.2 = target;
+        }
+        self.wrap_reference = true;
+        self.apply_wrapping_ramp(self.time);
+        Ok(())
     }
 
     /// The contact ramp's start scale ρ₀ = min(1, 0.9 D_min / 2R) at the current state, with
@@ -456,6 +500,13 @@ impl Simulator {
     pub fn break_passes(&mut self, removed: &[(usize, usize)]) -> Result<(), SimError> {
         if removed.is_empty() {
             return Ok(());
+        }
+        if self.wrap_reference {
+            return Err(SimError::Invalid(
+                "contacts cannot break in a simulator with a wrapping reference layout (the \
+                 rebuild would take the rest angles from the layout)"
+                    .into(),
+            ));
         }
         if self.time < self.settings.wrapping_ramp_time
             && self.elastic.count(TermKind::Wrapping) > 0
