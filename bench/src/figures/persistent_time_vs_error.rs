@@ -18,7 +18,10 @@
 //! reference's largest pull. Time: the pull only.
 //!
 //! Every run has the segment floor and the contact between adjacent loops, which the
-//! return mapping needs (`sim_persistent::forces::segment_floor`).
+//! return mapping needs (`sim_persistent::forces::segment_floor`), and yarn self-contact
+//! (the default) but one family: the return-mapping time steps without it, which give the
+//! contact's cost (its time against the same family with contact) and its effect (its
+//! error against the reference, which has contact).
 //!
 //! What it shows (measured, quick mode, 4 × 4 rib pulled 8 mm at 0.1 m/s; see
 //! reports/README.md for the current numbers): with the return mapping the error is 6 %
@@ -66,6 +69,8 @@ pub fn spec() -> FigureSpec {
 enum Family {
     /// Time step, friction return mapping.
     Dt(f64),
+    /// [`Family::Dt`] without yarn self-contact (on by default): its cost and its effect.
+    DtNoContact(f64),
     /// Time step, the paper's explicit anchor update (the simulator's default).
     DtExplicit(f64),
     /// Newton force tolerance at dt = 1 ms, return mapping.
@@ -90,8 +95,9 @@ const LOOSE_CG_TOL: f64 = 1e-2;
 
 /// The rib families' [`Family::index`] (the table's `family` code) and legend names; codes
 /// 4, 5, 7, 9 and 11 are the garment study's.
-const FAMILIES: [(usize, &str); 7] = [
+const FAMILIES: [(usize, &str); 8] = [
     (0, "time step, implicit friction (return mapping)"),
+    (12, "time step, implicit friction, no yarn self-contact"),
     (1, "time step, explicit anchor update (paper)"),
     (2, "Newton tolerance (dt = 1 ms, implicit friction)"),
     (3, "time step, linearized steps, IC-CG (implicit friction)"),
@@ -113,6 +119,7 @@ impl Family {
     fn index(self) -> usize {
         match self {
             Family::Dt(_) => 0,
+            Family::DtNoContact(_) => 12,
             Family::DtExplicit(_) => 1,
             Family::Tolerance(_) => 2,
             Family::Linearized(_) => 3,
@@ -125,6 +132,7 @@ impl Family {
     fn value(self) -> f64 {
         match self {
             Family::Dt(v)
+            | Family::DtNoContact(v)
             | Family::DtExplicit(v)
             | Family::Tolerance(v)
             | Family::Linearized(v)
@@ -138,6 +146,7 @@ impl Family {
     fn settings(self, reference_tol: f64) -> SwatchSettings {
         let (dt, tol, return_mapping) = match self {
             Family::Dt(dt)
+            | Family::DtNoContact(dt)
             | Family::Linearized(dt)
             | Family::LinearizedWarmCg(dt)
             | Family::LinearizedLooseCg(dt)
@@ -149,6 +158,7 @@ impl Family {
         s.linearized_cg = self.linearized_cg_tolerance();
         s.cg_warm_start = matches!(self, Family::LinearizedWarmCg(_));
         s.linearized_full_steps = matches!(self, Family::LinearizedFull(_));
+        s.forces.yarn_contact = !matches!(self, Family::DtNoContact(_));
         s
     }
 
@@ -159,13 +169,19 @@ impl Family {
                 Some(LINEARIZED_CG_TOL)
             }
             Family::LinearizedLooseCg(_) => Some(LOOSE_CG_TOL),
-            Family::Dt(_) | Family::DtExplicit(_) | Family::Tolerance(_) => None,
+            Family::Dt(_)
+            | Family::DtNoContact(_)
+            | Family::DtExplicit(_)
+            | Family::Tolerance(_) => None,
         }
     }
 
     fn key(self) -> String {
         match self {
             Family::Dt(dt) => format!("dt = {:.4} ms, return mapping", 1e3 * dt),
+            Family::DtNoContact(dt) => {
+                format!("dt = {:.4} ms, return mapping, no yarn contact", 1e3 * dt)
+            }
             Family::DtExplicit(dt) => format!("dt = {:.4} ms, explicit anchors", 1e3 * dt),
             Family::Tolerance(t) => format!("Newton |g| ≤ {t:.0e} N"),
             Family::Linearized(dt) => format!("dt = {:.4} ms, linearized, IC-CG", 1e3 * dt),
@@ -247,6 +263,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let reference_tol = 1e-7;
     let tolerances = [1e-4, 1e-5, 1e-6];
     let mut runs: Vec<Family> = dts.iter().map(|&d| Family::Dt(d)).collect();
+    runs.extend(dts.iter().map(|&d| Family::DtNoContact(d)));
     runs.extend(dts.iter().map(|&d| Family::DtExplicit(d)));
     runs.extend(tolerances.iter().map(|&t| Family::Tolerance(t)));
     runs.extend(dts.iter().map(|&d| Family::Linearized(d)));
@@ -273,7 +290,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         "newton_iterations",
         "dofs",
     ]);
-    let mut points: [Vec<(f64, f64)>; 11] = Default::default();
+    let mut points: [Vec<(f64, f64)>; 13] = Default::default();
     let mut summary = vec![
         (
             "settle (shared)".to_string(),
