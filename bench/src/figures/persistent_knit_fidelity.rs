@@ -201,20 +201,36 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
     let mut rows = Vec::new();
     let (mut paper_images, mut images) = (Vec::new(), Vec::new());
     // The runs are independent: simulate them in parallel, then measure and render in order.
-    let simulated = runs
+    // A run that fails (a step whose Newton solve fails after its halvings) is reported as
+    // failed, with its error, and the figure goes on: the paper model is expected to fail
+    // on some charts.
+    let simulated: Vec<anyhow::Result<_>> = runs
         .par_iter()
-        .map(|(model, k, spec)| {
-            let name = swatches[*k].0;
-            let out = spec
-                .simulate()
-                .map_err(|e| anyhow::anyhow!("{name} ({model}): {e:#}"));
+        .map(|(_, _, spec)| {
+            let out = spec.simulate();
             progress.inc(1);
             out
         })
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    for (i, ((model, k, spec), (result, sim))) in runs.iter().zip(simulated).enumerate() {
+        .collect();
+    for (i, ((model, k, spec), outcome)) in runs.iter().zip(simulated).enumerate() {
         let name = swatches[*k].0;
         let tile_gauge = spec.gauge.is_some();
+        let (result, sim) = match outcome {
+            Ok(out) => out,
+            Err(e) => {
+                let mut row = vec![f64::NAN; data.columns.len()];
+                row[0] = i as f64;
+                row[1] = *k as f64;
+                row[2] = f64::from(u8::from(spec.yarn_contact));
+                row[3] = f64::from(u8::from(tile_gauge));
+                data.push_row(row);
+                summary.push((
+                    format!("{name} {}×{}, {model}", spec.chart.width(), spec.chart.height()),
+                    format!("FAILED: {e:#}"),
+                ));
+                continue;
+            }
+        };
         let FreeSwatchRun {
             end,
             yarn_per_loop,
@@ -284,12 +300,15 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         } else {
             images.push((caption, image.image));
         }
-        rows.push(Row {
-            chart: name,
-            tile_gauge,
-            end,
-            kinetic_ratio,
-        });
+        rows.push((
+            i,
+            Row {
+                chart: name,
+                tile_gauge,
+                end,
+                kinetic_ratio,
+            },
+        ));
     }
     for (set, stem) in [(&images, "images"), (&paper_images, "paper-images")] {
         let panels: Vec<(&str, &yarn_output::render::Image)> =
@@ -308,8 +327,8 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         .log_y()
         .hline("limit", 1.0);
     for (name, ratio) in CRITERIA {
-        let points: Vec<(f64, f64)> = (rows.iter().enumerate())
-            .filter_map(|(i, r)| Some((i as f64, ratio(r)?.clamp(1e-2, 100.0))))
+        let points: Vec<(f64, f64)> = (rows.iter())
+            .filter_map(|(i, r)| Some((*i as f64, ratio(r)?.clamp(1e-2, 100.0))))
             .collect();
         if !points.is_empty() {
             chart = chart.series(Series::markers(name, points));
