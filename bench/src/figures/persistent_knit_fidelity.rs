@@ -225,7 +225,11 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 row[3] = f64::from(u8::from(tile_gauge));
                 data.push_row(row);
                 summary.push((
-                    format!("{name} {}×{}, {model}", spec.chart.width(), spec.chart.height()),
+                    format!(
+                        "{name} {}×{}, {model}",
+                        spec.chart.width(),
+                        spec.chart.height()
+                    ),
                     format!("FAILED: {e:#}"),
                 ));
                 continue;

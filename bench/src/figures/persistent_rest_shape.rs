@@ -13,7 +13,8 @@
 //! ([`sim_persistent::rest_shape::elastic_residual`], every elastic term and yarn contact at
 //! full radius, with the wrapping rest angles the simulation uses). The chart
 //! (`rest-shape.png`) plots the spacing changes per run; the images
-//! (`rest-shape-images.png`) show each swatch at its start and at the end, from the front.
+//! (`rest-shape-images.png`) show each swatch at its start and at the end, from the front,
+//! the four panels of a chart at one scale.
 
 use rayon::prelude::*;
 use sim_persistent::chart::Chart;
@@ -22,8 +23,10 @@ use sim_persistent::params::{WrappingRest, YarnParams};
 use sim_persistent::rest_shape::CompensationSettings;
 
 use crate::plot::{LineChart, Series, save_images};
-use crate::studies::persistent::render;
+use crate::studies::persistent::render_framed;
 use crate::{FigureContext, FigureOutput, FigureSpec, Table};
+use sim_persistent::integrator::Simulator;
+use yarn_output::render::Framing;
 
 /// Registry entry.
 pub fn spec() -> FigureSpec {
@@ -95,7 +98,7 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         "closest_unstitched_end_d",
         "kinetic_end_over_peak",
     ]);
-    let (mut summary, mut images) = (Vec::new(), Vec::new());
+    let (mut summary, mut images, mut sims) = (Vec::new(), Vec::new(), Vec::new());
     let (mut course_points, mut row_points) = (Vec::new(), Vec::new());
     for (i, ((k, compensated, _), (result, start, end))) in runs.iter().zip(simulated).enumerate() {
         let name = charts[*k].0;
@@ -145,9 +148,40 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
                 result.end.contacts.closest_unstitched,
             ),
         ));
-        for (when, sim) in [("start", &start), ("end", &end)] {
-            let image = render(sim, radius, (300, 300), [0.0, 0.0, -1.0], [0.0, 1.0, 0.0])?;
-            images.push((format!("{name}, {label}, {when}"), image.image));
+        sims.push((*k, format!("{name}, {label}"), start, end));
+    }
+    // One scale for the four panels of a chart (flat and compensated, start and end), so
+    // that the images show the sizes the table gives; each panel centred on its swatch.
+    let size = (300, 300);
+    for (k, _) in charts.iter().enumerate() {
+        let ours: Vec<_> = sims.iter().filter(|s| s.0 == k).collect();
+        let mut extent: [f64; 2] = [0.0; 2];
+        for (_, _, start, end) in &ours {
+            for sim in [start, end] {
+                let (lo, hi) = bounds(sim);
+                extent[0] = extent[0].max(hi[0] - lo[0] + 4.0 * radius);
+                extent[1] = extent[1].max(hi[1] - lo[1] + 4.0 * radius);
+            }
+        }
+        let pixels_per_metre =
+            0.95 * (f64::from(size.0) / extent[0]).min(f64::from(size.1) / extent[1]);
+        for (_, label, start, end) in ours {
+            for (when, sim) in [("start", start), ("end", end)] {
+                let (lo, hi) = bounds(sim);
+                let framing = Framing::Fixed {
+                    center: [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])],
+                    pixels_per_metre,
+                };
+                let image = render_framed(
+                    sim,
+                    radius,
+                    size,
+                    [0.0, 0.0, -1.0],
+                    [0.0, 1.0, 0.0],
+                    framing,
+                )?;
+                images.push((format!("{label}, {when}"), image.image));
+            }
         }
     }
     let panels: Vec<(&str, &yarn_output::render::Image)> =
@@ -177,4 +211,19 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         }),
         data,
     })
+}
+
+/// The lower and upper corners `(x, y)` (m) of `sim`'s nodes: the screen box of the front
+/// view (the camera's right and up axes are x and y).
+fn bounds(sim: &Simulator) -> ([f64; 2], [f64; 2]) {
+    let q = &sim.state().q;
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for n in 0..sim.topology().nodes.len() {
+        let p = sim.dofs().position(q, n);
+        for a in 0..2 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (lo, hi)
 }

@@ -15,8 +15,21 @@ pub fn render(
     direction: [f64; 3],
     up: [f64; 3],
 ) -> anyhow::Result<yarn_output::render::Rendering> {
+    let framing = yarn_output::render::Framing::Auto { margin: 0.05 };
+    render_framed(sim, radius, size, direction, up, framing)
+}
+
+/// [`render`] with the view `framing` (a fixed one draws several swatches at one scale).
+pub fn render_framed(
+    sim: &Simulator,
+    radius: f64,
+    size: (u32, u32),
+    direction: [f64; 3],
+    up: [f64; 3],
+    framing: yarn_output::render::Framing,
+) -> anyhow::Result<yarn_output::render::Rendering> {
     use sim_persistent::output::{CurveOptions, ObstacleMeshes, RenderCurves};
-    use yarn_output::render::{Camera, Framing, RenderOptions};
+    use yarn_output::render::{Camera, RenderOptions};
     let curves = RenderCurves::from_simulator(
         sim,
         &CurveOptions {
@@ -26,7 +39,7 @@ pub fn render(
     )?;
     let options = RenderOptions {
         camera: Camera { direction, up },
-        framing: Framing::Auto { margin: 0.05 },
+        framing,
         supersample: 2,
         ..RenderOptions::new(size.0, size.1, radius)
     };
