@@ -5,12 +5,13 @@
 //! 1. **Stitch-by-stitch CSV** (real data): optional `#` comment lines (the shared files note
 //!    the specimen width at the clamp there; it is not read), a header naming at least
 //!    `axial_strain`, `transverse_strain` and `stress_n_per_mm` (force per unit clamp width),
-//!    optionally `video,frame,force_n`. Several repeated loading runs (`video`) are merged: from
-//!    each run only the **loading branch** is kept (rows up to the run's largest axial strain),
-//!    then all points are **binned** over axial strain (equal-width bins over the range covered
-//!    by every run) and averaged per bin. Stretch `s` = axial strain; compression
-//!    `c = −transverse_strain`; force `f_s = stress × w̄` with `w̄` the virtual swatch width (the
-//!    data's specimens are not 6 cm wide, so force per unit width is what carries over).
+//!    optionally `video,frame,force_n` (the force is checked, not used). Several repeated
+//!    loading runs (`video`) are merged: from each run only the **loading branch** is kept
+//!    (rows up to the run's largest axial strain), then all points are **binned** over axial
+//!    strain (equal-width bins over the range covered by every run) and averaged per bin.
+//!    Stretch `s` = axial strain; compression `c = −transverse_strain`; force
+//!    `f_s = stress × w̄` with `w̄` the virtual swatch width (the data's specimens are not
+//!    6 cm wide, so force per unit width is what carries over).
 //! 2. **Per-direction schema** (seed-002 style): header `direction,s,f_s,c` with
 //!    `direction ∈ {weft, bias, warp}` (or `x`/`y`, `0`/`45`/`90`), force in N for the standard
 //!    6 cm swatch.
@@ -273,6 +274,9 @@ pub fn parse_stitch_csv(
         need("stress_n_per_mm")?,
     );
     let i_run = find("video");
+    // The clamp force is checked (a finite number) but not used: the stress column carries
+    // the force per unit width, which is what carries over to the virtual swatch.
+    let i_force = find("force_n");
     // Runs in order of first appearance: name → (axial, transverse, stress).
     let mut runs: Vec<(String, Vec<[f64; 3]>)> = Vec::new();
     for Record { line, fields } in rows {
@@ -302,6 +306,9 @@ pub fn parse_stitch_csv(
             }
         };
         let row = [num(i_ax)?, num(i_tr)?, num(i_st)?];
+        if let Some(i) = i_force {
+            num(i)?;
+        }
         let run = i_run.map_or("", |i| fields[i].as_str()).to_owned();
         match runs.iter_mut().find(|(r, _)| *r == run) {
             Some((_, rows)) => rows.push(row),
@@ -506,6 +513,10 @@ mod tests {
             e.to_string(),
             "bad.csv:8: column `stress_n_per_mm`: `oops` is not a number"
         );
+        let nan_force = STITCH.replace("b,2,1,0.012", "b,2,NaN,0.012");
+        let e = parse_stitch_csv(&nan_force, "f.csv", Direction::Weft, &BinOptions::default())
+            .unwrap_err();
+        assert_eq!(e.to_string(), "f.csv:8: column `force_n` is not finite");
         let short = STITCH.replace("b,3,2,0.022,0.2,-0.04", "b,3,2,0.022");
         let e =
             parse_stitch_csv(&short, "s.csv", Direction::Weft, &BinOptions::default()).unwrap_err();
