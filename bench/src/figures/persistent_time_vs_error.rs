@@ -23,27 +23,9 @@
 //! contact's cost (its time against the same family with contact) and its effect (its
 //! error against the reference, which has contact).
 //!
-//! What it shows (measured, quick mode, 4 × 4 rib pulled 8 mm at 0.1 m/s; see
-//! reports/README.md for the current numbers): with the return mapping the error is 6 %
-//! of the (small, ≈ 5 mN) reference pull at dt = 0.5 and 1 ms, 13 % at 2 ms and 33–58 %
-//! at 5–10 ms (not monotone in dt; not investigated); with the paper's explicit anchor update the pull is 200–1400 times the
-//! reference's, growing with dt: within a step a coordinate that slides `Δu` meets the
-//! spring force `k_f Δu`, far above `μλ`, so friction acts as a viscous brake of
-//! coefficient ≈ `k_f dt` that the explicit update only loses for steps near a microsecond
-//! (the `friction_dt` example of `sim-persistent` measures its pull falling as dt shrinks:
-//! 2.7, 0.88, 0.38, 0.10 N at 1, 0.25, 0.1, 0.025 ms, against 4.2–4.7 mN with the return
-//! mapping at every one of these steps).
-//!
-//! Full mode (8 × 6 rib pulled 20 mm; reports/README.md for the current numbers): the
-//! linearized steps, damped, reach 20 / 28 % at dt = 0.25 / 0.5 ms (full Newton: 15 / 16 %)
-//! in 0.6–0.7× full Newton's time, but 6–84× the peak pull at 1–10 ms, where their return
-//! mapping often runs out of re-solves; at full length (family 8) segments invert and the
-//! error is 5e4–3e10× the peak pull at every step. On the hat the damping costs accuracy at
-//! 1–2 ms (one backtracked step; `StepSettings::linearized_implicit_euler`). CG at 1e-2
-//! (families 10 and 11) lowered the rib's error at 0.25 / 0.5 ms (15 / 15 %
-//! against 20 / 28 % at 1e-3, in 0.84× / 0.83× the time) but raised the hat's by 1.2–1.5× at
-//! 0.5–1 ms (1.01 / 2.74 R against 0.83 / 1.79 R; 4.18 against 4.14 R at 2 ms), so the
-//! tolerance that halves the sweater's CG iterations is not free of error on a garment.
+//! Measurements of earlier runs, with the model they were made on, are in
+//! `reports/persistent-time-vs-error/NOTES.md`; the current numbers in the manifest and
+//! reports/README.md.
 
 use anyhow::Context;
 
