@@ -189,3 +189,75 @@ fn contact_ramps_in_from_the_layout() {
     assert_eq!(energy, 0.0);
     assert!(crossed > 0, "the decreases' legs cross in the flat layout");
 }
+
+/// A swatch re-laid from a settled state (as the sphere drop does) keeps the wrapping rest
+/// state of the flat layout it settled against with `Simulator::set_wrapping_reference`;
+/// without it, the settled angles plus the bias again become the rest angles. A reference
+/// of another topology is refused, and so is contact breaking afterwards.
+#[test]
+fn a_relaid_swatch_keeps_the_flat_layouts_wrapping_rest() {
+    use sim_persistent::forces::ForceSet;
+    use sim_persistent::forces::wrapping::StitchWrap;
+    use sim_persistent::integrator::{Simulator, StepSettings};
+    use sim_persistent::layout::{Layout, LayoutParams};
+    use sim_persistent::params::YarnParams;
+    use sim_persistent::topology::Topology;
+    let chart = Chart::stockinette(4, 4).unwrap();
+    let topo = Topology::knit(&chart);
+    let mut params = YarnParams::sweater();
+    params.gravity *= 0.0;
+    let flat = Layout::new(&topo, &LayoutParams::new(3e-3, params.radius)).unwrap();
+    let settings = StepSettings {
+        wrapping_ramp_time: 0.0,
+        rayleigh_alpha: 10.0,
+        ..StepSettings::default()
+    };
+    let forces = ForceSet {
+        yarn_contact: false,
+        ..ForceSet::default()
+    };
+    let mut sim = Simulator::new(topo.clone(), &flat, params, forces, settings.clone()).unwrap();
+    for _ in 0..30 {
+        sim.step().unwrap();
+    }
+    let rest = |s: &Simulator| -> Vec<f64> {
+        (s.static_terms().iter_of::<StitchWrap, 12>())
+            .map(|(_, w)| w.rest_angle)
+            .collect()
+    };
+    let q = &sim.state().q;
+    let relaid = Layout {
+        positions: (0..topo.nodes.len())
+            .map(|n| sim.dofs().position(q, n))
+            .collect(),
+        sliding: (0..topo.nodes.len())
+            .map(|n| {
+                (0..topo.nodes[n].passes.len())
+                    .map(|k| q[sim.dofs().u(n, k)])
+                    .collect()
+            })
+            .collect(),
+    };
+    let mut plain =
+        Simulator::new(topo.clone(), &relaid, params, forces, settings.clone()).unwrap();
+    let mut kept = plain.clone();
+    kept.set_wrapping_reference(&flat).unwrap();
+    let (want, got, drifted) = (rest(&sim), rest(&kept), rest(&plain));
+    assert!(!want.is_empty());
+    let worst = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+    };
+    assert!(worst(&want, &got) < 1e-12, "{}", worst(&want, &got));
+    assert!(worst(&want, &drifted) > 0.01, "{}", worst(&want, &drifted));
+    let other = Layout::new(
+        &Topology::knit(&Chart::stockinette(3, 4).unwrap()),
+        &LayoutParams::new(3e-3, params.radius),
+    )
+    .unwrap();
+    assert!(plain.set_wrapping_reference(&other).is_err());
+    let e = kept.break_passes(&[(1, 0)]).unwrap_err().to_string();
+    assert!(e.contains("wrapping reference"), "{e}");
+}

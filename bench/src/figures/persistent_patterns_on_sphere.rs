@@ -8,13 +8,12 @@
 //! 1. **settled** free and weightless from its flat layout (as in the `curl` figure: the stitch
 //!    wrapping rest angles ramp in over 0.1 s; rib pulls in, garter edges roll a little; the
 //!    weave layout is already at rest);
-//! 2. **re-laid at rest** (zero velocity, the settled positions and sliding coordinates as a
-//!    new layout, wrapping rest angles at ψ₀, friction anchors at the settled coordinates)
-//!    with its node centroid over the centre of a sphere of radius ρ, face up or face down
-//!    (a half turn about x), whichever puts its centre (the pole nodes below) lowest relative
-//!    to the rest — a settled knit is not flat, and one that lands on its edges slides off the
-//!    frictionless sphere — and lifted so that its lowest yarn surface is 1 mm above the
-//!    sphere;
+//! 2. **re-laid at rest** (zero velocity, the settled positions and sliding coordinates as a new
+//!    layout, wrapping rest angles of the flat layout, friction anchors at the settled coordinates)
+//!    with its node centroid over the centre of a sphere of radius ρ, face up or face down (a half
+//!    turn about x), whichever puts its centre (the pole nodes below) lowest relative to the rest —
+//!    a settled knit is not flat, and one that lands on its edges slides off the frictionless
+//!    sphere — and lifted so that its lowest yarn surface is 1 mm above the sphere;
 //! 3. **dropped** under gravity (−z) onto the sphere ([`sim_persistent::forces::obstacle`]:
 //!    frictionless penalty contact of the contact nodes), until it is **nearly at rest**:
 //!    the rms node speed `v_rms = √(2 E_kin / M)` (M the yarn mass) has stayed below
@@ -39,18 +38,9 @@
 //! yarn resting on the sphere's pole; and the deepest penetration of a node into the sphere
 //! (in R).
 //!
-//! **Measured** (dev profile, 2 shared cores). Quick (garter 6 × 5, rib 8 × 6, weave 7 × 7,
-//! ρ = 6 mm, 25 s): drape ratio / corner drop garter 1.07 / 3.1 mm, rib 1.04 / 1.2 mm, weave
-//! 0.83 / 6.5 mm; all at rest after 0.28–0.36 s (final E_kin ≈ 1e-9 J); deepest penetration
-//! 0.002–0.007 R. Full (release; garter 20 × 21, rib 22 × 20, weave 21 × 21, ρ = 20 mm,
-//! 207 s): garter 0.63 / 23.5 mm, rib 0.89 / 14.6 mm, weave 0.48 / 31.0 mm; all at rest
-//! after 0.21–0.54 s; deepest penetration ≤ 0.0096 R. (At 12 × 11 / 14 × 12 / 13 × 13 and
-//! ρ = 12 mm: garter 0.84 / 9.7 mm, rib 1.22 / −1.2 mm, weave 0.51 / 18.2 mm.) The woven swatch drapes most. The knits of
-//! this model settle into compact, strongly curled swatches (see the `curl` figure: the
-//! wrapping term dominates bending, the loops roll up tightly), which sit on the sphere as
-//! stiff bodies rather than draping softly as in Fig. 12; a settled rib is a narrow strip
-//! (it pulls in to ≈ 0.56 of its width) that lies across the sphere, and spreads on it
-//! (ratio > 1).
+//! Measurements of earlier runs, with the model they were made on, are in
+//! `reports/patterns-on-sphere/NOTES.md`; the current numbers in the manifest and
+//! reports/README.md.
 
 use rod::geometry::V3;
 use serde_json::json;

@@ -8,13 +8,12 @@
 //! 1. **settled** free and weightless from its flat layout (as in the `curl` figure: the stitch
 //!    wrapping rest angles ramp in over 0.1 s; rib pulls in, garter edges roll a little; the
 //!    weave layout is already at rest);
-//! 2. **re-laid at rest** (zero velocity, the settled positions and sliding coordinates as a
-//!    new layout, wrapping rest angles at ψ₀, friction anchors at the settled coordinates)
-//!    with its node centroid over the centre of a sphere of radius ρ, face up or face down
-//!    (a half turn about x), whichever puts its centre (the pole nodes below) lowest relative
-//!    to the rest — a settled knit is not flat, and one that lands on its edges slides off the
-//!    frictionless sphere — and lifted so that its lowest yarn surface is 1 mm above the
-//!    sphere;
+//! 2. **re-laid at rest** (zero velocity, the settled positions and sliding coordinates as a new
+//!    layout, wrapping rest angles of the flat layout, friction anchors at the settled coordinates)
+//!    with its node centroid over the centre of a sphere of radius ρ, face up or face down (a half
+//!    turn about x), whichever puts its centre (the pole nodes below) lowest relative to the rest —
+//!    a settled knit is not flat, and one that lands on its edges slides off the frictionless
+//!    sphere — and lifted so that its lowest yarn surface is 1 mm above the sphere;
 //! 3. **dropped** under gravity (−z) onto the sphere ([`crate::forces::obstacle`]:
 //!    frictionless penalty contact of the contact nodes), until it is **nearly at rest**:
 //!    the rms node speed `v_rms = √(2 E_kin / M)` (M the yarn mass) has stayed below
@@ -239,9 +238,12 @@ pub fn prepare(topo: Topology, setup: &DropSetup) -> anyhow::Result<(SphereDrop,
     let mut params = free.params;
     params.gravity = V3::new(0.0, 0.0, -9.81);
     let mut settings = free.step_settings();
-    // Already wrapped: the rest angles are ψ₀ from the start.
+    // Already wrapped and pushed apart: no settling ramps, and the wrapping rest angles stay
+    // those of the flat layout the swatch settled against (a half turn about x does not
+    // change a signed wrapping angle), not the settled angles plus the bias again.
     settings.wrapping_ramp_time = 0.0;
     let mut drop = Simulator::new(topo, &relaid, params, ForceSet::default(), settings)?;
+    drop.set_wrapping_reference(&flat)?;
     drop.add_obstacles(&[Obstacle::new(
         Shape::Sphere {
             center,
