@@ -363,7 +363,7 @@ pub fn elastic_residual_with_reference(
         let mut segments = Segments::new(topology);
         segments.exclude_crossed(
             &layout.positions,
-            contact.phases[0].radius,
+            contact.crossing_distance(),
             contact.min_arc_separation,
         );
         terms.append(yarn_contact_terms(

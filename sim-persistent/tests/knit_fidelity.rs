@@ -150,9 +150,9 @@ fn the_papers_quarter_turn_rolls_a_flat_layout_through_itself() {
 
 /// The settling ramp of yarn self-contact (`sim_persistent::integrator`, *contact ramp*):
 /// the crowded Table 1 layout of a stockinette (unstitched segments 0.65 d apart) starts
-/// with zero contact energy and no excluded pair; a shaped chart's flat layout, whose
-/// leaning decrease legs cross their neighbours, excludes those crossings from contact and
-/// still starts with zero contact energy.
+/// with zero contact energy and no excluded pair; the flat layout of the shaped chart of
+/// `tests/stacked.rs`, where leaning decrease legs cross their neighbours' legs, excludes
+/// those crossings from contact and still starts with zero contact energy.
 #[test]
 fn contact_ramps_in_from_the_layout() {
     use sim_persistent::forces::{ForceSet, TermKind};
@@ -184,7 +184,11 @@ fn contact_ramps_in_from_the_layout() {
     let (energy, terms, crossed) = start(&Chart::stockinette(6, 6).unwrap());
     assert_eq!((energy, crossed), (0.0, 0));
     assert!(terms > 0, "the close pairs are in the list");
-    let shaped = Chart::parse("K9\nK M1L K7 M1R K\nK2 K2TOG K3 SSK K2\nK9\n").unwrap();
+    let shaped = Chart::parse(
+        "K9\nK M1L K7 M1R K\nK KFB K7 PFB K\nK2 P2TOG K5 SSP K2\nK2 K2TOG K3 SSK K2\n\
+         K2 SL K K3TOG K SL\nK7\n",
+    )
+    .unwrap();
     let (energy, _, crossed) = start(&shaped);
     assert_eq!(energy, 0.0);
     assert!(crossed > 0, "the decreases' legs cross in the flat layout");

@@ -12,8 +12,9 @@
 //!   there by the persistent contact itself, [`crate::topology::StitchContact`]), and
 //! - are not pieces of one yarn closer than [`YarnContact::min_arc_separation`] along it (a
 //!   yarn touches itself around every bend), and
-//! - were not laid out through each other (closer than the yarn radius in the layout the
-//!   simulator starts from, [`Segments::exclude_crossed`]),
+//! - were not laid out through each other (centrelines closer than
+//!   [`YarnContact::crossing_distance`] in the layout the simulator starts from,
+//!   [`Segments::exclude_crossed`]),
 //!
 //! so that the same contact law acts in both simulators of the workbench.
 //!
@@ -94,11 +95,13 @@ impl Segments {
     }
 
     /// Excludes from contact, for good, every pair that `positions` (a layout) puts closer
-    /// than `distance` (m; the simulator uses the yarn radius, half the contact distance),
-    /// and returns how many. Such segments were laid out through each other (the flat layout
-    /// of a shaped or lace chart lets a leaning decrease leg cross its neighbours' legs), so
-    /// contact cannot know on which side of each other they belong; a barrier would lock
-    /// them in the crossing. They are left to the persistent contacts.
+    /// than `distance` (m; the simulator uses [`YarnContact::crossing_distance`]), and
+    /// returns how many. Such segments were laid out through each other (the flat layout of
+    /// a shaped or lace chart lets a leaning decrease leg cross its neighbours' legs), so
+    /// contact cannot know on which side of each other they belong, and its barrier,
+    /// infinite where centrelines meet, cannot start there. They are left to the persistent
+    /// contacts. Pairs laid out farther apart are pushed apart by the contact ramp instead
+    /// ([`crate::integrator`]).
     pub fn exclude_crossed(&mut self, positions: &[V3], distance: f64, min_arc: f64) -> usize {
         let pairs = close_pairs(self, positions, distance, min_arc);
         self.crossed.extend(pairs.iter().map(|p| (p.a, p.b)));
@@ -262,6 +265,15 @@ impl YarnContact {
             min_arc_separation: 4.0 * radius,
             margin: 2.0 * radius,
         }
+    }
+
+    /// Centreline distance (m) below which a pair of the starting layout counts as laid out
+    /// through each other and is excluded from contact ([`Segments::exclude_crossed`]): the
+    /// soft phase's radius (the yarn radius, half the contact distance). Closer pairs are
+    /// more than half inside each other; the contact ramp cannot push them apart (with a
+    /// tenth of it, the shaped chart of `tests/stacked.rs` stalls Newton as the ramp ends).
+    pub fn crossing_distance(&self) -> f64 {
+        self.phases[0].radius
     }
 
     /// Centreline distance (m) beyond which a pair has no energy.

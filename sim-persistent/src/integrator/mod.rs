@@ -68,9 +68,9 @@
 //!   `ρ₀ = min(1, 0.9 D_min/2R)` and `D_min` the closest such pair of the layout: the
 //!   contact energy is zero at the layout, and the fabric is pushed apart as smoothly as
 //!   the stitches wrap. A layout with every pair at least `2R/0.9` apart has no ramp.
-//!   Pairs the layout puts closer than `R` (through each other: the leaning legs of
-//!   decreases in the flat layouts of shaped and lace charts) are excluded from contact for
-//!   the run ([`crate::forces::yarn_contact::Segments::exclude_crossed`],
+//!   Pairs the layout puts through each other (closer than
+//!   [`YarnContact::crossing_distance`], R: the leaning legs of decreases in the flat
+//!   layouts of shaped and lace charts) are excluded from contact for the run ([`crate::forces::yarn_contact::Segments::exclude_crossed`],
 //!   [`Simulator::crossed_contact_pairs`]) and do not set `D_min`.
 
 mod settings;
@@ -333,11 +333,11 @@ impl Simulator {
         sim.add_obstacles(&obstacles)?;
         if let Some(contact) = sim.contact.contact {
             // At a rebuild (contact breaking) the pairs excluded at the start are the ones
-            // still this close, as contact kept every other pair at least 0.8 d apart.
+            // still this close, as contact kept every other pair apart.
             let positions = sim.positions();
             sim.contact.crossed = sim.contact.segments.exclude_crossed(
                 &positions,
-                contact.phases[0].radius,
+                contact.crossing_distance(),
                 contact.min_arc_separation,
             );
             if ramp && sim.settings.wrapping_ramp_time > 0.0 {
@@ -410,8 +410,8 @@ impl Simulator {
         (CONTACT_RAMP_CLEARANCE * closest / contact.cutoff()).min(1.0)
     }
 
-    /// How many pairs of segments the layout put through each other, closer than the yarn
-    /// radius: they are excluded from yarn self-contact for the whole run
+    /// How many pairs of segments the layout put through each other (closer than
+    /// [`YarnContact::crossing_distance`]): they are excluded from yarn self-contact for the whole run
     /// ([`crate::forces::yarn_contact::Segments::exclude_crossed`]); 0 without yarn contact.
     pub fn crossed_contact_pairs(&self) -> usize {
         self.contact.crossed
