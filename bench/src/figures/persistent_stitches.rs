@@ -117,10 +117,17 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
         let start = std::time::Instant::now();
         let mut points = vec![(0.0, mean_height(&sim))];
         let (mut iterations, mut substeps) = (0, 0);
+        // A step that fails after its halvings ends this fabric's run, which is reported with
+        // the state it reached; the other fabrics go on.
+        let mut failure = None;
         for s in 1..=steps {
-            let report = sim
-                .step()
-                .map_err(|e| anyhow::anyhow!("{name}: step {s}: {e}"))?;
+            let report = match sim.step() {
+                Ok(report) => report,
+                Err(e) => {
+                    failure = Some(format!("step {s} at t = {:.4} s failed: {e}", sim.time()));
+                    break;
+                }
+            };
             iterations += report.newton_iterations;
             substeps += report.substeps;
             if s % sample_every == 0 {
@@ -137,18 +144,28 @@ fn run(ctx: &FigureContext) -> anyhow::Result<FigureOutput> {
             data.push_row([k as f64, t, y]);
         }
         let change = points.last().map_or(f64::NAN, |p| p.1) - points[0].1;
+        let outcome = match &failure {
+            None => format!(
+                "{duration} s in {steps} steps ({substeps} substeps, {iterations} Newton iterations), {seconds:.1} s; mean height {change:+.2} mm"
+            ),
+            Some(f) => format!(
+                "FAILED: {f}; {substeps} substeps, {iterations} Newton iterations before, {seconds:.1} s; mean height {change:+.2} mm"
+            ),
+        };
         summary.push((
             format!(
                 "{name}: {} rows, {n_nodes} nodes, {n_dofs} DoFs, up to {stacked} yarns per node",
                 chart_k.height()
             ),
-            format!(
-                "{duration} s in {steps} steps ({substeps} substeps, {iterations} Newton iterations), {seconds:.1} s; mean height {change:+.2} mm"
-            ),
+            outcome,
         ));
         chart = chart.series(Series::line(*name, points));
         let image = render(&sim, params.radius, (420, 420), view, [0.0, 1.0, 0.0])?;
-        images.push((format!("{name}: after {duration} s"), image.image));
+        let caption = match failure {
+            None => format!("{name}: after {duration} s"),
+            Some(_) => format!("{name}: failed at {:.3} s", sim.time()),
+        };
+        images.push((caption, image.image));
     }
     for (list, stem) in [(&layouts, "layouts"), (&images, "images")] {
         let panels: Vec<(&str, &yarn_output::render::Image)> =
