@@ -70,7 +70,8 @@
 //!   the stitches wrap. A layout with every pair at least `2R/0.9` apart has no ramp.
 //!   Pairs the layout puts through each other (closer than
 //!   [`YarnContact::crossing_distance`], R: the leaning legs of decreases in the flat
-//!   layouts of shaped and lace charts) are excluded from contact for the run ([`crate::forces::yarn_contact::Segments::exclude_crossed`],
+//!   layouts of shaped and lace charts) are excluded from contact for the run
+//!   ([`crate::forces::yarn_contact::Segments::exclude_crossed`],
 //!   [`Simulator::crossed_contact_pairs`]) and do not set `D_min`.
 
 mod settings;
@@ -411,8 +412,9 @@ impl Simulator {
     }
 
     /// How many pairs of segments the layout put through each other (closer than
-    /// [`YarnContact::crossing_distance`]): they are excluded from yarn self-contact for the whole run
-    /// ([`crate::forces::yarn_contact::Segments::exclude_crossed`]); 0 without yarn contact.
+    /// [`YarnContact::crossing_distance`]): they are excluded from yarn self-contact for the
+    /// whole run ([`crate::forces::yarn_contact::Segments::exclude_crossed`]); 0 without yarn
+    /// contact.
     pub fn crossed_contact_pairs(&self) -> usize {
         self.contact.crossed
     }
@@ -454,10 +456,7 @@ impl Simulator {
         let Some(contact) = self.contact.contact else {
             return;
         };
-        let q = &self.state.q;
-        let positions: Vec<V3> = (0..self.dofs.n_nodes())
-            .map(|n| self.dofs.position(q, n))
-            .collect();
+        let positions = self.positions();
         let moved = self.contact.searched_at.len() != positions.len()
             || positions
                 .iter()
